@@ -1,0 +1,49 @@
+// Poses (Eigen::Isometry3d) and the two trajectory file formats: KITTI (12 numbers a line, the
+// row-major 3x4 pose) and TUM (`t x y z qx qy qz qw`).
+#pragma once
+
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace pl {
+
+using Pose = Eigen::Isometry3d;
+
+enum class PoseFormat { Kitti, Tum };
+
+// A trajectory: poses, with a time for each when the format carries one (TUM) or when it was
+// attached (e.g. KITTI poses with the dataset's times.txt).
+struct Trajectory {
+  std::vector<Pose, Eigen::aligned_allocator<Pose>> poses;
+  std::vector<double> times;  // empty, or one per pose
+  PoseFormat format = PoseFormat::Kitti;
+
+  std::size_t size() const { return poses.size(); }
+  bool has_times() const { return times.size() == poses.size() && !poses.empty(); }
+};
+
+// Builds a pose from a translation and roll/pitch/yaw (R = Rz(yaw) Ry(pitch) Rx(roll)).
+Pose make_pose(double x, double y, double z, double roll = 0.0, double pitch = 0.0, double yaw = 0.0);
+// Heading of the pose's x axis in the xy plane.
+double yaw_of(const Pose& pose);
+// Rotation angle of a pose's rotation part, in radians [0, pi].
+double rotation_angle(const Pose& pose);
+// Projects a nearly-orthonormal 3x3 matrix (e.g. parsed from text rounded to 7 digits) onto SO(3).
+Eigen::Matrix3d orthonormalize(const Eigen::Matrix3d& r);
+// Interpolates between two poses (linear translation, slerp rotation), s in [0, 1].
+Pose interpolate(const Pose& a, const Pose& b, double s);
+
+// Readers throw pl::Error naming the file, the line and what was expected.
+Trajectory read_kitti_poses(const std::string& path);
+Trajectory read_tum_poses(const std::string& path);
+// Decides the format from the first data line: 12 numbers = KITTI, 8 = TUM.
+Trajectory read_trajectory(const std::string& path);
+std::optional<PoseFormat> parse_pose_format(const std::string& name);
+
+void write_kitti_poses(const std::string& path, const Trajectory& traj);
+void write_tum_poses(const std::string& path, const Trajectory& traj);  // needs times
+void write_trajectory(const std::string& path, const Trajectory& traj, PoseFormat format);
+
+}  // namespace pl

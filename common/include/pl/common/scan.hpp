@@ -1,0 +1,34 @@
+// LiDAR scans in the sensor frame (x forward, y left, z up) and the per-scan operations the paper
+// uses: ring (beam) index, keeping every k-th beam, field-of-view and range crops.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace pl {
+
+struct PointXYZI {
+  float x, y, z, intensity;
+};
+using Scan = std::vector<PointXYZI>;
+
+// KITTI .bin: little-endian float32 x y z reflectance. Throws pl::Error naming the file.
+Scan read_kitti_bin(const std::string& path);
+void write_kitti_bin(const std::string& path, const Scan& scan);
+
+// Ring of every point of a scan stored laser by laser (KITTI): a new ring starts where the azimuth
+// crosses 0 from negative to non-negative after the ring has gone round the back of the sensor.
+std::vector<std::uint16_t> rings_from_azimuth(const Scan& scan);
+// Ring of every point from the nearest vertical angle of the sensor's beam table.
+std::vector<std::uint16_t> rings_from_elevation(const Scan& scan, const std::vector<double>& vertical_angles_deg);
+
+// Keeps the points whose ring r satisfies r % every == offset (64 -> 16 beams: every = 4).
+Scan keep_every_kth_ring(const Scan& scan, const std::vector<std::uint16_t>& rings, int every, int offset = 0,
+                         std::vector<std::uint16_t>* kept_rings = nullptr);
+// Keeps the points whose azimuth lies within fov/2 of `center_deg` (0 = straight ahead).
+Scan crop_fov(const Scan& scan, double fov_deg, double center_deg = 0.0);
+// Keeps the points with min <= range < max (range in the xy plane and z: the Euclidean norm).
+Scan crop_range(const Scan& scan, double min_m, double max_m);
+
+}  // namespace pl

@@ -1,0 +1,346 @@
+#include "pl/common/dataset.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <map>
+
+#include "pl/common/error.hpp"
+#include "pl/common/text.hpp"
+
+namespace fs = std::filesystem;
+
+namespace pl {
+
+const char* gps_status_name(int status) {
+  switch (status) {
+    case kGpsSingle: return "single";
+    case kGpsDgps: return "dgps";
+    case kGpsFloat: return "rtk-float";
+    case kGpsFixed: return "rtk-fixed";
+    default: return "none";
+  }
+}
+
+const char* Dataset::layout_name() const { return layout == DatasetLayout::KittiRaw ? "KITTI raw" : "KITTI odometry"; }
+
+Scan Dataset::load_scan(std::size_t i) const {
+  if (i >= scan_paths.size()) throw Error("scan index " + std::to_string(i) + " out of range (dataset has " + std::to_string(scan_paths.size()) + " scans)");
+  return read_kitti_bin(scan_paths[i]);
+}
+
+std::vector<std::uint16_t> Dataset::rings(const Scan& scan) const {
+  if (meta.sensor.point_order == "laser-by-laser") return rings_from_azimuth(scan);
+  return rings_from_elevation(scan, meta.sensor.vertical_angles_deg);
+}
+
+Eigen::Vector3d Dataset::to_world(const GeoPoint& p) const {
+  switch (projection.kind) {
+    case WorldProjection::Kind::Enu: return projection.world_from_projected * EnuFrame(projection.origin).to_enu(p);
+    case WorldProjection::Kind::KittiMercator: {
+      Eigen::Vector2d m = kitti_mercator(p.lat_deg, p.lon_deg, projection.mercator_scale);
+      return projection.world_from_projected * Eigen::Vector3d(m.x(), m.y(), p.alt_m);
+    }
+    default: break;
+  }
+  throw Error(dir + ": GPS positions cannot be placed in the world frame: add \"origin\" {lat, lon, alt} to meta.json");
+}
+
+bool parse_kitti_timestamp(const std::string& text, double& seconds) {
+  int y, mo, d, h, mi;
+  double s;
+  if (std::sscanf(text.c_str(), "%d-%d-%d %d:%d:%lf", &y, &mo, &d, &h, &mi, &s) != 6) return false;
+  if (mo < 1 || mo > 12 || d < 1 || d > 31 || h < 0 || h > 23 || mi < 0 || mi > 59 || s < 0 || s >= 61) return false;
+  // Days from the civil date (proleptic Gregorian), so runs across midnight or month ends stay monotonic.
+  y -= mo <= 2;
+  long era = (y >= 0 ? y : y - 399) / 400;
+  long yoe = y - era * 400;
+  long doy = (153 * (mo + (mo > 2 ? -3 : 9)) + 2) / 5 + d - 1;
+  long doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+  long days = era * 146097 + doe - 719468;
+  seconds = static_cast<double>(days) * 86400.0 + h * 3600.0 + mi * 60.0 + s;
+  return true;
+}
+
+namespace {
+
+// Scans in a folder: NNN.bin files ordered by their number.
+void list_scans(const std::string& folder, Dataset& ds) {
+  std::vector<std::pair<long, std::string>> found;
+  for (const auto& e : fs::directory_iterator(folder)) {
+    if (!e.is_regular_file() || e.path().extension() != ".bin") continue;
+    long long id = 0;
+    std::string stem = e.path().stem().string();
+    if (!parse_int(stem, id) || id < 0)
+      throw Error(e.path().string() + ": scan files must be named by their frame number (e.g. 000042.bin)");
+    found.emplace_back(static_cast<long>(id), e.path().string());
+  }
+  if (found.empty()) {
+    bool compressed = false;
+    for (const auto& e : fs::directory_iterator(folder)) compressed |= e.path().extension() == ".xz";
+    throw Error(folder + ": no .bin scans" +
+                (compressed ? std::string(" (the scans are .xz-compressed: expand them with ../shared/data/unpack.sh DEST)") : ""));
+  }
+  std::sort(found.begin(), found.end());
+  for (auto& [id, path] : found) {
+    ds.frame_ids.push_back(id);
+    ds.scan_paths.push_back(std::move(path));
+  }
+}
+
+// Every line of a file as numbers (the line index is the frame number).
+std::vector<std::vector<double>> read_number_lines(const std::string& path, std::size_t count, const std::string& what) {
+  LineReader reader(path);
+  std::vector<std::vector<double>> out;
+  std::string line;
+  while (reader.next(line)) out.push_back(parse_numbers(reader, line, count, count, what, " \t\r"));
+  return out;
+}
+
+Pose pose_from_12(const std::vector<double>& v) {
+  Eigen::Matrix3d r;
+  r << v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10];
+  Pose p = Pose::Identity();
+  p.linear() = orthonormalize(r);
+  p.translation() = Eigen::Vector3d(v[3], v[7], v[11]);
+  return p;
+}
+
+// "KEY: 12 numbers" from a KITTI calibration file.
+std::optional<Pose> read_calib_entry(const std::string& path, const std::string& key) {
+  LineReader reader(path);
+  std::string line;
+  while (reader.next(line)) {
+    if (line.rfind(key + ":", 0) != 0) continue;
+    auto v = parse_numbers(reader, line.substr(key.size() + 1), 12, 12, key + ": the row-major 3x4 transform", " \t\r");
+    return pose_from_12(v);
+  }
+  return std::nullopt;
+}
+
+// A CSV sidecar: an optional header naming the columns, then rows of numbers in non-decreasing time.
+template <typename Fn>
+void read_csv_sidecar(const std::string& path, const std::vector<std::string>& columns, Fn&& row) {
+  LineReader reader(path);
+  std::string line, header;
+  for (std::size_t i = 0; i < columns.size(); ++i) header += (i ? "," : "") + columns[i];
+  bool first = true;
+  double last_t = -INFINITY;
+  while (reader.next(line)) {
+    if (first) {
+      first = false;
+      if (std::isalpha(static_cast<unsigned char>(line[line.find_first_not_of(" \t")]))) {
+        auto names = split_fields(line, " \t\r,");
+        bool same = names.size() == columns.size();
+        for (std::size_t i = 0; same && i < names.size(); ++i) same = names[i] == columns[i];
+        if (!same) reader.fail("the header \"" + header + "\"", line);
+        continue;
+      }
+    }
+    auto v = parse_numbers(reader, line, columns.size(), columns.size(), header, ",");
+    if (v[0] < last_t) reader.fail("times in non-decreasing order (previous t = " + std::to_string(last_t) + ")", line);
+    last_t = v[0];
+    row(v, reader, line);
+  }
+}
+
+int oxts_status(int posmode) {
+  switch (posmode) {
+    case 3: case 13: case 21: return kGpsSingle;
+    case 4: case 7: case 8: case 14: case 17: case 18: case 22: return kGpsDgps;
+    case 5: case 9: case 15: case 23: return kGpsFloat;
+    case 6: case 16: case 24: return kGpsFixed;
+    default: return kGpsNone;
+  }
+}
+
+void open_odometry_layout(Dataset& ds) {
+  ds.layout = DatasetLayout::KittiOdometry;
+  list_scans(ds.dir + "/velodyne", ds);
+  std::string times_path = ds.dir + "/times.txt";
+  if (!file_exists(times_path)) throw Error(times_path + ": missing (one time in seconds per frame)");
+  auto times = read_number_lines(times_path, 1, "the frame's time in seconds");
+  long last = ds.frame_ids.back();
+  if (static_cast<long>(times.size()) <= last)
+    throw Error(times_path + ": has " + std::to_string(times.size()) + " lines but scan " + std::to_string(last) +
+                " needs line " + std::to_string(last + 1));
+  for (long id : ds.frame_ids) ds.times.push_back(times[id][0]);
+
+  std::string poses_path = ds.dir + "/poses.txt";
+  if (file_exists(poses_path)) {
+    auto rows = read_number_lines(poses_path, 12, "a KITTI pose: the row-major 3x4 matrix");
+    if (static_cast<long>(rows.size()) <= last)
+      throw Error(poses_path + ": has " + std::to_string(rows.size()) + " poses but scan " + std::to_string(last) +
+                  " needs line " + std::to_string(last + 1));
+    std::string calib_path = ds.dir + "/calib.txt";
+    Pose tr = Pose::Identity();  // velo -> cam0
+    bool cam0 = false;
+    if (file_exists(calib_path)) {
+      auto entry = read_calib_entry(calib_path, "Tr");
+      if (!entry) throw Error(calib_path + ": no \"Tr:\" line (the LiDAR-to-cam0 transform, 12 numbers)");
+      tr = *entry;
+      cam0 = true;
+    }
+    ds.ground_truth.format = PoseFormat::Kitti;
+    for (long id : ds.frame_ids) {
+      Pose p = pose_from_12(rows[id]);
+      ds.ground_truth.poses.push_back(cam0 ? Pose(tr.inverse() * p * tr) : p);
+    }
+    ds.ground_truth.times = ds.times;
+  }
+}
+
+void open_raw_layout(Dataset& ds) {
+  ds.layout = DatasetLayout::KittiRaw;
+  list_scans(ds.dir + "/velodyne_points/data", ds);
+  std::size_t n = ds.scan_paths.size();
+
+  // Times: the LiDAR's own timestamps when present, otherwise the (synchronised) OXTS ones.
+  std::string ts_path = ds.dir + "/velodyne_points/timestamps.txt";
+  if (!file_exists(ts_path)) ts_path = ds.dir + "/oxts/timestamps.txt";
+  {
+    LineReader reader(ts_path);
+    std::string line;
+    std::vector<double> all;
+    while (reader.next(line)) {
+      double s = 0;
+      if (!parse_kitti_timestamp(line, s)) reader.fail("a timestamp like 2011-09-26 13:04:32.349659964", line);
+      all.push_back(s);
+    }
+    if (all.size() <= static_cast<std::size_t>(ds.frame_ids.back()))
+      throw Error(ts_path + ": has " + std::to_string(all.size()) + " timestamps but scan " + std::to_string(ds.frame_ids.back()) + " needs one");
+    for (long id : ds.frame_ids) ds.times.push_back(all[id] - all[0]);
+  }
+
+  // OXTS: one file of 30 numbers per frame.
+  std::string calib_path = ds.dir + "/calib_imu_to_velo.txt";
+  if (!file_exists(calib_path)) throw Error(calib_path + ": missing (R: 9 numbers, T: 3 numbers; X_velo = R X_imu + T)");
+  Pose imu_to_velo = Pose::Identity();
+  {
+    LineReader reader(calib_path);
+    std::string line;
+    bool have_r = false, have_t = false;
+    while (reader.next(line)) {
+      if (line.rfind("R:", 0) == 0) {
+        auto v = parse_numbers(reader, line.substr(2), 9, 9, "R: the row-major 3x3 rotation", " \t\r");
+        Eigen::Matrix3d r;
+        r << v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8];
+        imu_to_velo.linear() = orthonormalize(r);
+        have_r = true;
+      } else if (line.rfind("T:", 0) == 0) {
+        auto v = parse_numbers(reader, line.substr(2), 3, 3, "T: the translation in metres", " \t\r");
+        imu_to_velo.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
+        have_t = true;
+      }
+    }
+    if (!have_r || !have_t) throw Error(calib_path + ": needs an \"R:\" line (9 numbers) and a \"T:\" line (3 numbers)");
+  }
+
+  std::vector<std::vector<double>> oxts;
+  oxts.reserve(n);
+  char name[32];
+  for (long id : ds.frame_ids) {
+    std::snprintf(name, sizeof(name), "%010ld.txt", id);
+    std::string path = ds.dir + "/oxts/data/" + name;
+    if (!file_exists(path)) throw Error(path + ": missing (every scan needs its OXTS record)");
+    auto rows = read_number_lines(path, 30, "an OXTS record: lat lon alt roll pitch yaw ... (30 values, see oxts/dataformat.txt)");
+    if (rows.size() != 1) throw Error(path + ": expected exactly one line of 30 numbers");
+    oxts.push_back(std::move(rows[0]));
+  }
+
+  double scale = std::cos(oxts[0][0] * M_PI / 180.0);
+  auto imu_pose = [&](const std::vector<double>& o) {
+    Eigen::Vector2d m = kitti_mercator(o[0], o[1], scale);
+    return make_pose(m.x(), m.y(), o[2], o[3], o[4], o[5]);
+  };
+  Pose first_inv = imu_pose(oxts[0]).inverse();
+  Pose velo_to_imu = imu_to_velo.inverse();
+  ds.ground_truth.format = PoseFormat::Kitti;
+  for (const auto& o : oxts) ds.ground_truth.poses.push_back(imu_to_velo * first_inv * imu_pose(o) * velo_to_imu);
+  ds.ground_truth.times = ds.times;
+
+  ds.projection.kind = WorldProjection::Kind::KittiMercator;
+  ds.projection.origin = {oxts[0][0], oxts[0][1], oxts[0][2]};
+  ds.projection.mercator_scale = scale;
+  ds.projection.world_from_projected = imu_to_velo * first_inv;
+
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& o = oxts[i];
+    ds.gps.push_back({ds.times[i], {o[0], o[1], o[2]}, o[23], oxts_status(static_cast<int>(o[27]))});
+  }
+
+  ds.meta.sensor.vertical_angles_deg = hdl64_vertical_angles_deg();
+  ds.meta.vehicle.gps_lever_arm = imu_to_velo.translation();  // the OXTS antenna/IMU in the LiDAR frame
+  ds.meta.origin = ds.projection.origin;
+}
+
+}  // namespace
+
+Dataset open_dataset(const std::string& dir_in) {
+  Dataset ds;
+  ds.dir = dir_in;
+  while (ds.dir.size() > 1 && ds.dir.back() == '/') ds.dir.pop_back();
+  if (!dir_exists(ds.dir)) throw Error(ds.dir + ": no such folder");
+  ds.meta.sensor.vertical_angles_deg = hdl64_vertical_angles_deg();
+
+  if (dir_exists(ds.dir + "/velodyne_points/data") && dir_exists(ds.dir + "/oxts/data"))
+    open_raw_layout(ds);
+  else if (dir_exists(ds.dir + "/velodyne"))
+    open_odometry_layout(ds);
+  else
+    throw Error(ds.dir + ": not a dataset: expected velodyne/ (KITTI odometry layout) or velodyne_points/data/ and oxts/data/ (KITTI raw layout)");
+
+  std::string meta_path = ds.dir + "/meta.json";
+  if (file_exists(meta_path)) {
+    ds.meta = read_meta(meta_path);
+    ds.has_meta_file = true;
+    ds.sidecars.push_back("meta.json");
+    if (ds.meta.sensor.vertical_angles_deg.empty() && ds.meta.sensor.beams == 64)
+      ds.meta.sensor.vertical_angles_deg = hdl64_vertical_angles_deg();
+    if (ds.meta.origin && ds.layout == DatasetLayout::KittiOdometry) {
+      ds.projection.kind = WorldProjection::Kind::Enu;
+      ds.projection.origin = *ds.meta.origin;
+    }
+  }
+
+  std::string gps_path = ds.dir + "/gps.csv";
+  if (file_exists(gps_path)) {  // a sidecar replaces the OXTS stream (e.g. a degraded receiver)
+    ds.gps.clear();
+    read_csv_sidecar(gps_path, {"t", "lat", "lon", "alt", "std_m", "status"},
+                     [&](const std::vector<double>& v, const LineReader& r, const std::string& line) {
+                       if (v[5] < 0 || v[5] > 4 || v[5] != std::floor(v[5]))
+                         r.fail("status 0 (none), 1 (single), 2 (dgps), 3 (rtk-float) or 4 (rtk-fixed)", line);
+                       if (std::abs(v[1]) > 90 || std::abs(v[2]) > 180) r.fail("lat in [-90, 90] and lon in [-180, 180] degrees", line);
+                       if (v[4] < 0) r.fail("std_m >= 0", line);
+                       ds.gps.push_back({v[0], {v[1], v[2], v[3]}, v[4], static_cast<int>(v[5])});
+                     });
+    ds.sidecars.push_back("gps.csv");
+  }
+  std::string enc_path = ds.dir + "/encoder.csv";
+  if (file_exists(enc_path)) {
+    read_csv_sidecar(enc_path, {"t", "left_m", "right_m"},
+                     [&](const std::vector<double>& v, const LineReader&, const std::string&) {
+                       ds.encoder.push_back({v[0], v[1], v[2]});
+                     });
+    ds.sidecars.push_back("encoder.csv");
+  }
+  std::string odo_path = ds.dir + "/odometry.csv";
+  if (file_exists(odo_path)) {
+    read_csv_sidecar(odo_path, {"t", "x", "y", "z", "qx", "qy", "qz", "qw"},
+                     [&](const std::vector<double>& v, const LineReader& r, const std::string& line) {
+                       Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
+                       if (!(q.norm() > 0.5 && q.norm() < 1.5)) r.fail("a unit quaternion in qx,qy,qz,qw", line);
+                       OdometrySample s{v[0], Pose::Identity()};
+                       s.pose.linear() = q.normalized().toRotationMatrix();
+                       s.pose.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
+                       ds.odometry.push_back(s);
+                     });
+    ds.sidecars.push_back("odometry.csv");
+  }
+  if (!ds.encoder.empty() && !(ds.meta.vehicle.wheel_base_m > 0))
+    throw Error(meta_path + ": encoder.csv needs \"vehicle\": {\"wheel_base_m\": ...} in meta.json to turn wheel travel into motion");
+  return ds;
+}
+
+}  // namespace pl

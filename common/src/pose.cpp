@@ -1,0 +1,160 @@
+#include "pl/common/pose.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+
+#include "pl/common/error.hpp"
+#include "pl/common/text.hpp"
+
+namespace pl {
+
+Pose make_pose(double x, double y, double z, double roll, double pitch, double yaw) {
+  Pose p = Pose::Identity();
+  p.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+                   .toRotationMatrix();
+  p.translation() = Eigen::Vector3d(x, y, z);
+  return p;
+}
+
+double yaw_of(const Pose& pose) { return std::atan2(pose.linear()(1, 0), pose.linear()(0, 0)); }
+
+double rotation_angle(const Pose& pose) {
+  double c = (pose.linear().trace() - 1.0) * 0.5;
+  return std::acos(std::clamp(c, -1.0, 1.0));
+}
+
+Eigen::Matrix3d orthonormalize(const Eigen::Matrix3d& r) {
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(r, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d out = svd.matrixU() * svd.matrixV().transpose();
+  if (out.determinant() < 0) {
+    Eigen::Matrix3d u = svd.matrixU();
+    u.col(2) *= -1.0;
+    out = u * svd.matrixV().transpose();
+  }
+  return out;
+}
+
+Pose interpolate(const Pose& a, const Pose& b, double s) {
+  Pose p = Pose::Identity();
+  Eigen::Quaterniond qa(a.linear()), qb(b.linear());
+  p.linear() = qa.slerp(s, qb).toRotationMatrix();
+  p.translation() = (1.0 - s) * a.translation() + s * b.translation();
+  return p;
+}
+
+namespace {
+
+Pose pose_from_kitti(const std::vector<double>& v) {
+  Eigen::Matrix3d r;
+  r << v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10];
+  Pose p = Pose::Identity();
+  p.linear() = orthonormalize(r);
+  p.translation() = Eigen::Vector3d(v[3], v[7], v[11]);
+  return p;
+}
+
+Pose pose_from_tum(const std::vector<double>& v, const LineReader& reader, const std::string& line) {
+  Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
+  double n = q.norm();
+  if (!(n > 0.5 && n < 1.5)) reader.fail("a unit quaternion qx qy qz qw in fields 5 to 8", line);
+  Pose p = Pose::Identity();
+  p.linear() = q.normalized().toRotationMatrix();
+  p.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
+  return p;
+}
+
+struct FileCloser {
+  void operator()(std::FILE* f) const { std::fclose(f); }
+};
+using FilePtr = std::unique_ptr<std::FILE, FileCloser>;
+
+FilePtr open_for_writing(const std::string& path) {
+  FilePtr f(std::fopen(path.c_str(), "w"));
+  if (!f) throw Error(path + ": cannot write (check that the folder exists and is writable)");
+  return f;
+}
+
+void finish_writing(FilePtr f, const std::string& path) {
+  if (std::ferror(f.get()) || std::fclose(f.release()) != 0) throw Error(path + ": write failed (disk full?)");
+}
+
+}  // namespace
+
+Trajectory read_kitti_poses(const std::string& path) {
+  LineReader reader(path);
+  Trajectory traj;
+  traj.format = PoseFormat::Kitti;
+  std::string line;
+  while (reader.next(line)) {
+    auto v = parse_numbers(reader, line, 12, 12, "a KITTI pose: the row-major 3x4 matrix", " \t\r");
+    traj.poses.push_back(pose_from_kitti(v));
+  }
+  return traj;
+}
+
+Trajectory read_tum_poses(const std::string& path) {
+  LineReader reader(path);
+  Trajectory traj;
+  traj.format = PoseFormat::Tum;
+  std::string line;
+  while (reader.next(line)) {
+    auto v = parse_numbers(reader, line, 8, 8, "a TUM pose: t x y z qx qy qz qw", " \t\r");
+    if (!traj.times.empty() && v[0] < traj.times.back())
+      reader.fail("timestamps in increasing order (previous " + std::to_string(traj.times.back()) + ")", line);
+    traj.times.push_back(v[0]);
+    traj.poses.push_back(pose_from_tum(v, reader, line));
+  }
+  return traj;
+}
+
+Trajectory read_trajectory(const std::string& path) {
+  LineReader reader(path);
+  std::string line;
+  if (!reader.next(line)) throw Error(path + ": empty trajectory file (expected KITTI or TUM poses)");
+  std::size_t n = split_fields(line, " \t\r").size();
+  if (n == 12) return read_kitti_poses(path);
+  if (n == 8) return read_tum_poses(path);
+  reader.fail("12 numbers a line (KITTI) or 8 numbers a line (TUM: t x y z qx qy qz qw)", line);
+}
+
+std::optional<PoseFormat> parse_pose_format(const std::string& name) {
+  if (name == "kitti") return PoseFormat::Kitti;
+  if (name == "tum") return PoseFormat::Tum;
+  return std::nullopt;
+}
+
+void write_kitti_poses(const std::string& path, const Trajectory& traj) {
+  FilePtr f = open_for_writing(path);
+  for (const Pose& p : traj.poses) {
+    const auto& m = p.matrix();
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c) std::fprintf(f.get(), (r == 2 && c == 3) ? "%.12g\n" : "%.12g ", m(r, c));
+  }
+  finish_writing(std::move(f), path);
+}
+
+void write_tum_poses(const std::string& path, const Trajectory& traj) {
+  if (!traj.has_times()) throw Error(path + ": TUM poses need a time for every pose (write KITTI instead, or attach times)");
+  FilePtr f = open_for_writing(path);
+  for (std::size_t i = 0; i < traj.size(); ++i) {
+    const Pose& p = traj.poses[i];
+    Eigen::Quaterniond q(p.linear());
+    if (q.w() < 0) q.coeffs() *= -1.0;
+    std::fprintf(f.get(), "%.6f %.12g %.12g %.12g %.12g %.12g %.12g %.12g\n", traj.times[i], p.translation().x(),
+                 p.translation().y(), p.translation().z(), q.x(), q.y(), q.z(), q.w());
+  }
+  finish_writing(std::move(f), path);
+}
+
+void write_trajectory(const std::string& path, const Trajectory& traj, PoseFormat format) {
+  if (format == PoseFormat::Kitti)
+    write_kitti_poses(path, traj);
+  else
+    write_tum_poses(path, traj);
+}
+
+}  // namespace pl

@@ -1,0 +1,130 @@
+#include "pl/common/scan.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <numeric>
+
+#include "pl/common/error.hpp"
+
+namespace pl {
+
+static_assert(sizeof(PointXYZI) == 16, "PointXYZI must match the KITTI .bin record");
+
+Scan read_kitti_bin(const std::string& path) {
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!f) throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
+  std::fseek(f.get(), 0, SEEK_END);
+  long size = std::ftell(f.get());
+  std::fseek(f.get(), 0, SEEK_SET);
+  if (size < 0 || size % 16 != 0)
+    throw Error(path + ": size " + std::to_string(size) + " bytes is not a whole number of points (expected float32 x y z reflectance, 16 bytes a point)");
+  Scan scan(static_cast<std::size_t>(size / 16));
+  if (!scan.empty() && std::fread(scan.data(), 16, scan.size(), f.get()) != scan.size())
+    throw Error(path + ": read failed");
+  for (const auto& p : scan)
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      throw Error(path + ": point " + std::to_string(&p - scan.data()) + " has a non-finite coordinate");
+  return scan;
+}
+
+void write_kitti_bin(const std::string& path, const Scan& scan) {
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
+  if (!f) throw Error(path + ": cannot write (" + std::strerror(errno) + ")");
+  if (!scan.empty() && std::fwrite(scan.data(), 16, scan.size(), f.get()) != scan.size())
+    throw Error(path + ": write failed (disk full?)");
+  if (std::fclose(f.release()) != 0) throw Error(path + ": write failed (disk full?)");
+}
+
+std::vector<std::uint16_t> rings_from_azimuth(const Scan& scan) {
+  std::vector<std::uint16_t> rings(scan.size());
+  std::uint16_t ring = 0;
+  bool went_round_back = false;  // guards against noise flipping the sign near straight ahead
+  float prev = 0.0f;
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    float az = std::atan2(scan[i].y, scan[i].x);
+    // Only a crossing of straight ahead counts: near the back the sign flips at +-180 deg, and
+    // range noise there makes it flip back and forth.
+    constexpr float kQuarter = static_cast<float>(M_PI / 2);
+    if (i > 0 && prev < 0.0f && prev > -kQuarter && az >= 0.0f && az < kQuarter && went_round_back) {
+      if (ring < 65535) ++ring;
+      went_round_back = false;
+    }
+    if (std::abs(az) > kQuarter) went_round_back = true;
+    rings[i] = ring;
+    prev = az;
+  }
+  // The last laser's final return can land just past straight ahead and open a ring of its own:
+  // a last ring that never went round the back and is tiny next to the one before is that tail.
+  if (ring > 0 && !went_round_back) {
+    std::size_t last = 0, before = 0;
+    for (auto r : rings) last += r == ring, before += r == ring - 1;
+    if (last * 20 < before)
+      for (auto& r : rings)
+        if (r == ring) r = ring - 1;
+  }
+  return rings;
+}
+
+std::vector<std::uint16_t> rings_from_elevation(const Scan& scan, const std::vector<double>& angles_deg) {
+  if (angles_deg.empty()) throw Error("rings from elevation need the sensor's vertical angles (meta.json sensor.vertical_angles_deg)");
+  // Sort the table once and keep where each angle came from.
+  std::vector<std::size_t> order(angles_deg.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return angles_deg[a] < angles_deg[b]; });
+  std::vector<double> sorted(order.size());
+  for (std::size_t i = 0; i < order.size(); ++i) sorted[i] = angles_deg[order[i]] * M_PI / 180.0;
+  std::vector<std::uint16_t> rings(scan.size());
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const auto& p = scan[i];
+    double el = std::atan2(static_cast<double>(p.z), std::hypot(static_cast<double>(p.x), static_cast<double>(p.y)));
+    auto it = std::lower_bound(sorted.begin(), sorted.end(), el);
+    std::size_t k = static_cast<std::size_t>(it - sorted.begin());
+    if (k == sorted.size() || (k > 0 && el - sorted[k - 1] < sorted[k] - el)) --k;
+    rings[i] = static_cast<std::uint16_t>(order[k]);
+  }
+  return rings;
+}
+
+Scan keep_every_kth_ring(const Scan& scan, const std::vector<std::uint16_t>& rings, int every, int offset,
+                         std::vector<std::uint16_t>* kept_rings) {
+  if (rings.size() != scan.size()) throw Error("keep_every_kth_ring: one ring per point expected");
+  if (every < 1 || offset < 0 || offset >= every) throw Error("keep every k-th beam: k must be >= 1 and 0 <= offset < k");
+  Scan out;
+  out.reserve(scan.size() / static_cast<std::size_t>(every) + 16);
+  if (kept_rings) kept_rings->clear();
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    if (rings[i] % every != offset) continue;
+    out.push_back(scan[i]);
+    if (kept_rings) kept_rings->push_back(static_cast<std::uint16_t>(rings[i] / every));
+  }
+  return out;
+}
+
+Scan crop_fov(const Scan& scan, double fov_deg, double center_deg) {
+  if (fov_deg >= 360.0) return scan;
+  double half = 0.5 * fov_deg * M_PI / 180.0, center = center_deg * M_PI / 180.0;
+  Scan out;
+  out.reserve(scan.size());
+  for (const auto& p : scan) {
+    double d = std::remainder(std::atan2(static_cast<double>(p.y), static_cast<double>(p.x)) - center, 2.0 * M_PI);
+    if (std::abs(d) <= half) out.push_back(p);
+  }
+  return out;
+}
+
+Scan crop_range(const Scan& scan, double min_m, double max_m) {
+  double lo = min_m * min_m, hi = max_m * max_m;
+  Scan out;
+  out.reserve(scan.size());
+  for (const auto& p : scan) {
+    double r2 = static_cast<double>(p.x) * p.x + static_cast<double>(p.y) * p.y + static_cast<double>(p.z) * p.z;
+    if (r2 >= lo && r2 < hi) out.push_back(p);
+  }
+  return out;
+}
+
+}  // namespace pl

@@ -1,0 +1,247 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "pl/common/dataset.hpp"
+#include "pl/common/error.hpp"
+#include "test_util.hpp"
+
+using pl::test::TempDir;
+using pl::test::write_file;
+
+namespace {
+
+std::string kitti_line(const pl::Pose& p) {
+  std::string s;
+  char buf[64];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) {
+      std::snprintf(buf, sizeof(buf), "%.12g%s", p.matrix()(r, c), (r == 2 && c == 3) ? "\n" : " ");
+      s += buf;
+    }
+  return s;
+}
+
+std::string error_of(const std::string& dir) {
+  try {
+    pl::open_dataset(dir);
+  } catch (const pl::Error& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+pl::Scan small_scan(float shift) { return {{1.f + shift, 2.f, 3.f, 0.5f}, {4.f, 5.f, 6.f, 0.25f}}; }
+
+// A KITTI raw drive of n frames on a curve near Karlsruhe, with varying roll/pitch/yaw.
+void write_raw_drive(const std::string& dir, int n) {
+  write_file(dir + "/calib_imu_to_velo.txt",
+             "calib_time: 25-May-2012 16:47:16\n"
+             "R: 9.999976e-01 7.553071e-04 -2.035826e-03 -7.854027e-04 9.998898e-01 -1.482298e-02 2.024406e-03 "
+             "1.482454e-02 9.998881e-01\nT: -8.086759e-01 3.195559e-01 -7.997231e-01\n");
+  std::string stamps;
+  for (int i = 0; i < n; ++i) {
+    double a = 0.05 * i;
+    double lat = 49.0112128 + 0.0004 * std::sin(a), lon = 8.4228850 + 0.0006 * (1 - std::cos(a));
+    double alt = 112.8 + 0.05 * i, roll = 0.01 * std::sin(3 * a), pitch = -0.02 * std::cos(2 * a), yaw = -1.2 + a;
+    char line[512];
+    int posmode = i < n / 2 ? 6 : (i % 3 == 0 ? 4 : 5);
+    std::snprintf(line, sizeof(line),
+                  "%.12f %.12f %.6f %.9f %.9f %.9f 1 2 10 0 0 0 0 9.8 0 0 9.8 0 0 0.1 0 0 0.1 %.3f 0.05 4 10 %d 4 0\n",
+                  lat, lon, alt, roll, pitch, yaw, 0.02 + 0.01 * i, posmode);
+    char name[64];
+    std::snprintf(name, sizeof(name), "/oxts/data/%010d.txt", i);
+    write_file(dir + name, line);
+    std::snprintf(name, sizeof(name), "/velodyne_points/data/%010d.bin", i);
+    std::filesystem::create_directories(dir + "/velodyne_points/data");
+    pl::write_kitti_bin(dir + name, small_scan(static_cast<float>(i)));
+    // Crosses midnight halfway: the times must still increase by 0.1 s.
+    std::snprintf(line, sizeof(line), "2011-09-26 23:59:%012.9f\n", 59.0 + 0.1 * i);
+    if (59.0 + 0.1 * i >= 60.0) std::snprintf(line, sizeof(line), "2011-09-27 00:00:%012.9f\n", 59.0 + 0.1 * i - 60.0);
+    stamps += line;
+  }
+  write_file(dir + "/oxts/timestamps.txt", stamps);
+}
+
+}  // namespace
+
+TEST(Dataset, OdometryLayoutConvertsCam0PosesToLidar) {
+  TempDir dir;
+  pl::write_kitti_bin(dir / "velodyne/000000.bin", (std::filesystem::create_directories(dir / "velodyne"), small_scan(0)));
+  pl::write_kitti_bin(dir / "velodyne/000002.bin", small_scan(1));
+  write_file(dir / "times.txt", "0\n0.1\n0.2\n");
+  pl::Pose p0 = pl::make_pose(0, 0, 0), p1 = pl::make_pose(0.1, 0, 1, 0, 0.01, 0), p2 = pl::make_pose(0.3, -0.1, 2.5, 0.02, -0.05, 0.01);
+  write_file(dir / "poses.txt", kitti_line(p0) + kitti_line(p1) + kitti_line(p2));
+  pl::Dataset plain = pl::open_dataset(dir.path());
+  ASSERT_EQ(plain.size(), 2u);
+  EXPECT_EQ(plain.frame_ids[1], 2);
+  EXPECT_DOUBLE_EQ(plain.times[1], 0.2);
+  EXPECT_TRUE(plain.ground_truth.poses[1].isApprox(p2, 1e-9));  // no calib.txt: poses are LiDAR poses already
+
+  // With calib.txt the poses are cam0 poses: LiDAR pose = Tr^-1 P Tr.
+  pl::Pose tr = pl::Pose::Identity();
+  tr.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;  // x_cam = -y_velo, y_cam = -z_velo, z_cam = x_velo
+  tr.translation() = Eigen::Vector3d(-0.01, -0.05, -0.29);
+  std::string trs = kitti_line(tr);
+  write_file(dir / "calib.txt", "P0: 1 0 0 0 0 1 0 0 0 0 1 0\nTr: " + trs);
+  pl::Dataset ds = pl::open_dataset(dir.path());
+  pl::Pose expected = tr.inverse() * p2 * tr;
+  EXPECT_TRUE(ds.ground_truth.poses[1].isApprox(expected, 1e-9));
+  // The camera's forward (z) motion becomes the LiDAR's forward (x) motion.
+  EXPECT_NEAR(ds.ground_truth.poses[1].translation().x() - ds.ground_truth.poses[0].translation().x(), 2.5, 0.1);
+  pl::Scan s = ds.load_scan(1);
+  EXPECT_EQ(s[0].x, 2.f);
+}
+
+TEST(Dataset, OdometryLayoutErrorsNameTheFile) {
+  TempDir dir;
+  std::filesystem::create_directories(dir / "velodyne");
+  EXPECT_NE(error_of(dir.path()).find("no .bin scans"), std::string::npos);
+  write_file(dir / "velodyne/000000.bin.xz", "x");
+  EXPECT_NE(error_of(dir.path()).find("unpack.sh"), std::string::npos);
+  pl::write_kitti_bin(dir / "velodyne/000000.bin", small_scan(0));
+  pl::write_kitti_bin(dir / "velodyne/000005.bin", small_scan(0));
+  EXPECT_NE(error_of(dir.path()).find("times.txt: missing"), std::string::npos);
+  write_file(dir / "times.txt", "0\n0.1\n");
+  EXPECT_NE(error_of(dir.path()).find("needs line 6"), std::string::npos);
+  write_file(dir / "times.txt", "0\n0.1\n0.2\nfoo\n0.4\n0.5\n");
+  EXPECT_NE(error_of(dir.path()).find("times.txt:4"), std::string::npos);
+  write_file(dir / "times.txt", "0\n0.1\n0.2\n0.3\n0.4\n0.5\n");
+  write_file(dir / "poses.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n");
+  EXPECT_NE(error_of(dir.path()).find("poses.txt: has 1 poses"), std::string::npos);
+  std::filesystem::remove(dir / "poses.txt");
+  write_file(dir / "velodyne/abc.bin", "");
+  EXPECT_NE(error_of(dir.path()).find("named by their frame number"), std::string::npos);
+  EXPECT_NE(error_of(dir / "nope").find("no such folder"), std::string::npos);
+  TempDir empty;
+  EXPECT_NE(error_of(empty.path()).find("not a dataset"), std::string::npos);
+}
+
+TEST(Dataset, SidecarsAreRead) {
+  TempDir dir;
+  std::filesystem::create_directories(dir / "velodyne");
+  pl::write_kitti_bin(dir / "velodyne/000000.bin", small_scan(0));
+  write_file(dir / "times.txt", "0\n");
+  write_file(dir / "gps.csv", "t,lat,lon,alt,std_m,status\n0.0,49.0,8.4,100.0,0.02,4\n0.1,49.00001,8.4,100.5,1.5,1\n");
+  write_file(dir / "encoder.csv", "t,left_m,right_m\n0,0,0\n0.01,0.1,0.12\n");
+  write_file(dir / "odometry.csv", "t,x,y,z,qx,qy,qz,qw\n0,1,2,3,0,0,0,1\n");
+  write_file(dir / "meta.json", R"({"sensor": {"model": "VLP-16", "beams": 16, "point_order": "any",
+      "vertical_angles_deg": [-15,1,-13,3,-11,5,-9,7,-7,9,-5,11,-3,13,-1,15], "fov_deg": 180},
+      "vehicle": {"wheel_base_m": 1.6, "gps_lever_arm_m": [0.5, 0, 1.2]},
+      "origin": {"lat": 49.0, "lon": 8.4, "alt": 100.0}})");
+  pl::Dataset ds = pl::open_dataset(dir.path());
+  ASSERT_EQ(ds.gps.size(), 2u);
+  EXPECT_EQ(ds.gps[0].status, pl::kGpsFixed);
+  EXPECT_DOUBLE_EQ(ds.gps[1].std_m, 1.5);
+  ASSERT_EQ(ds.encoder.size(), 2u);
+  EXPECT_DOUBLE_EQ(ds.encoder[1].right_m, 0.12);
+  ASSERT_EQ(ds.odometry.size(), 1u);
+  EXPECT_DOUBLE_EQ(ds.odometry[0].pose.translation().y(), 2.0);
+  EXPECT_EQ(ds.meta.sensor.beams, 16);
+  EXPECT_EQ(ds.meta.sensor.fov_deg, 180.0);
+  EXPECT_DOUBLE_EQ(ds.meta.vehicle.wheel_base_m, 1.6);
+  EXPECT_DOUBLE_EQ(ds.meta.vehicle.gps_lever_arm.z(), 1.2);
+  EXPECT_EQ(ds.sidecars.size(), 4u);
+  // The world frame is ENU about the origin: the second fix is ~1.1 m north and 0.5 m up.
+  Eigen::Vector3d w = ds.to_world(ds.gps[1].position);
+  EXPECT_NEAR(w.x(), 0.0, 1e-6);
+  EXPECT_NEAR(w.y(), 1.11, 0.01);
+  EXPECT_NEAR(w.z(), 0.5, 1e-3);
+  // Rings come from the table when the points are in any order.
+  pl::Scan s = {{10.f, 0.f, 10.f * std::tan(3.0f * float(M_PI) / 180.f), 0.f}};
+  EXPECT_EQ(ds.rings(s)[0], 3);  // +3 deg is the fourth entry of the table
+}
+
+TEST(Dataset, SidecarErrorsNameFileLineAndFix) {
+  TempDir dir;
+  std::filesystem::create_directories(dir / "velodyne");
+  pl::write_kitti_bin(dir / "velodyne/000000.bin", small_scan(0));
+  write_file(dir / "times.txt", "0\n");
+  write_file(dir / "gps.csv", "t,lat,lon,alt,std_m,status\n0.0,49.0,8.4,100.0,0.02,4\n0.1,49.0,8.4,100.0,0.02,7\n");
+  std::string e = error_of(dir.path());
+  EXPECT_NE(e.find("gps.csv:3"), std::string::npos) << e;
+  EXPECT_NE(e.find("rtk-fixed"), std::string::npos) << e;
+  write_file(dir / "gps.csv", "time,lat,lon\n");
+  e = error_of(dir.path());
+  EXPECT_NE(e.find("gps.csv:1"), std::string::npos) << e;
+  EXPECT_NE(e.find("t,lat,lon,alt,std_m,status"), std::string::npos) << e;
+  write_file(dir / "gps.csv", "0.2,49.0,8.4,100.0,0.02,4\n0.1,49.0,8.4,100.0,0.02,4\n");
+  EXPECT_NE(error_of(dir.path()).find("non-decreasing"), std::string::npos);
+  std::filesystem::remove(dir / "gps.csv");
+  write_file(dir / "encoder.csv", "t,left_m,right_m\n0,0,0\n");
+  e = error_of(dir.path());
+  EXPECT_NE(e.find("wheel_base_m"), std::string::npos) << e;
+  write_file(dir / "meta.json", "{\"vehicle\": {\"wheel_base_m\": 1.6,}}");
+  e = error_of(dir.path());
+  EXPECT_NE(e.find("meta.json: not valid JSON"), std::string::npos) << e;
+  EXPECT_NE(e.find("line 1"), std::string::npos) << e;
+  write_file(dir / "meta.json", R"({"sensor": {"beams": 16, "vertical_angles_deg": [1, 2]}})");
+  EXPECT_NE(error_of(dir.path()).find("has 2 angles"), std::string::npos);
+  write_file(dir / "meta.json", R"({"vehicle": {"wheel_base_m": 1.6}, "origin": {"lat": 49}})");
+  EXPECT_NE(error_of(dir.path()).find("missing \"origin.lon\""), std::string::npos);
+}
+
+TEST(Dataset, KittiTimestamps) {
+  double a = 0, b = 0;
+  ASSERT_TRUE(pl::parse_kitti_timestamp("2011-09-26 13:04:32.349659964", a));
+  ASSERT_TRUE(pl::parse_kitti_timestamp("2011-09-26 13:04:32.459792166", b));
+  EXPECT_NEAR(b - a, 0.110132202, 1e-6);
+  ASSERT_TRUE(pl::parse_kitti_timestamp("1970-01-02 00:00:00.0", a));
+  EXPECT_DOUBLE_EQ(a, 86400.0);
+  ASSERT_TRUE(pl::parse_kitti_timestamp("2012-03-01 00:00:00", a));
+  ASSERT_TRUE(pl::parse_kitti_timestamp("2012-02-29 23:59:59.5", b));
+  EXPECT_DOUBLE_EQ(a - b, 0.5);  // leap day
+  EXPECT_FALSE(pl::parse_kitti_timestamp("2011-13-26 13:04:32", a));
+  EXPECT_FALSE(pl::parse_kitti_timestamp("yesterday", a));
+}
+
+TEST(Dataset, RawLayoutOxtsGivesPosesGpsAndTimes) {
+  TempDir dir;
+  write_raw_drive(dir.path(), 30);
+  pl::Dataset ds = pl::open_dataset(dir.path());
+  EXPECT_EQ(ds.layout, pl::DatasetLayout::KittiRaw);
+  ASSERT_EQ(ds.size(), 30u);
+  ASSERT_EQ(ds.ground_truth.size(), 30u);
+  ASSERT_EQ(ds.gps.size(), 30u);
+  for (std::size_t i = 1; i < ds.size(); ++i) EXPECT_NEAR(ds.times[i] - ds.times[i - 1], 0.1, 1e-6);
+  EXPECT_TRUE(ds.ground_truth.poses[0].isApprox(pl::Pose::Identity(), 1e-9));
+  EXPECT_EQ(ds.gps[0].status, pl::kGpsFixed);
+  EXPECT_EQ(ds.gps[29].status, pl::kGpsFloat);
+  EXPECT_EQ(ds.gps[27].status, pl::kGpsDgps);
+  EXPECT_NEAR(ds.gps[3].std_m, 0.05, 1e-9);
+  EXPECT_NEAR(ds.meta.vehicle.gps_lever_arm.x(), -0.8086759, 1e-9);
+  // The GPS (IMU) position in the world frame is the LiDAR pose applied to the lever arm.
+  for (std::size_t i : {0u, 10u, 29u}) {
+    Eigen::Vector3d antenna = ds.ground_truth.poses[i] * ds.meta.vehicle.gps_lever_arm;
+    EXPECT_NEAR((ds.to_world(ds.gps[i].position) - antenna).norm(), 0.0, 1e-6) << i;
+  }
+}
+
+TEST(Dataset, RawPosesAgreeWithIndependentConversion) {
+  TempDir dir;
+  write_raw_drive(dir / "drive", 40);
+  auto r = pl::test::run(pl::test::tool("pl-dataset") + " poses " + (dir / "drive") + " --out " + (dir / "gt.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  auto check = pl::test::run("python3 " PL_SOURCE_DIR "/tests/tools/oxts_poses.py " + (dir / "drive") + " " + (dir / "gt.txt") + " --tol 0.001");
+  EXPECT_EQ(check.exit_code, 0) << check.output;
+  EXPECT_NE(check.output.find("poses 40"), std::string::npos) << check.output;
+}
+
+TEST(Dataset, PlDatasetInfoReportsAndFailsClearly) {
+  TempDir dir;
+  write_raw_drive(dir / "drive", 12);
+  auto r = pl::test::run(pl::test::tool("pl-dataset") + " info " + (dir / "drive"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("KITTI raw"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("12 poses"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("12 fixes"), std::string::npos) << r.output;
+  auto j = pl::test::run(pl::test::tool("pl-dataset") + " info --json " + (dir / "drive"));
+  EXPECT_NE(j.output.find("\"scans\": 12"), std::string::npos) << j.output;
+  std::filesystem::remove(dir / "drive/oxts/data/0000000005.txt");
+  auto bad = pl::test::run(pl::test::tool("pl-dataset") + " info " + (dir / "drive"));
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.output.find("0000000005.txt: missing"), std::string::npos) << bad.output;
+  auto typo = pl::test::run(pl::test::tool("pl-dataset") + " poses " + (dir / "drive") + " --outfile x");
+  EXPECT_EQ(typo.exit_code, 2);
+  EXPECT_NE(typo.output.find("--out"), std::string::npos) << typo.output;
+}

@@ -1,0 +1,106 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "pl/common/error.hpp"
+#include "pl/common/pose.hpp"
+#include "test_util.hpp"
+
+using pl::test::TempDir;
+using pl::test::write_file;
+
+namespace {
+
+pl::Trajectory spiral(std::size_t n) {
+  pl::Trajectory t;
+  for (std::size_t i = 0; i < n; ++i) {
+    double a = 0.05 * static_cast<double>(i);
+    t.poses.push_back(pl::make_pose(10 * std::cos(a), 10 * std::sin(a), 0.1 * a, 0.01 * a, -0.02 * a, a + M_PI / 2));
+    t.times.push_back(1000.0 + 0.1 * static_cast<double>(i));
+  }
+  return t;
+}
+
+}  // namespace
+
+TEST(Pose, MakePoseAndYaw) {
+  pl::Pose p = pl::make_pose(1, 2, 3, 0, 0, 0.7);
+  EXPECT_NEAR(pl::yaw_of(p), 0.7, 1e-12);
+  EXPECT_NEAR(pl::rotation_angle(p), 0.7, 1e-12);
+  EXPECT_TRUE(p.translation().isApprox(Eigen::Vector3d(1, 2, 3)));
+  // Rz(yaw) Ry(pitch) Rx(roll): the x axis tilts down with positive pitch.
+  pl::Pose q = pl::make_pose(0, 0, 0, 0, 0.1, 0);
+  EXPECT_NEAR((q.linear() * Eigen::Vector3d::UnitX()).z(), -std::sin(0.1), 1e-12);
+}
+
+TEST(Pose, InterpolateHalfway) {
+  pl::Pose a = pl::make_pose(0, 0, 0, 0, 0, 0), b = pl::make_pose(2, 4, 0, 0, 0, 1.0);
+  pl::Pose m = pl::interpolate(a, b, 0.5);
+  EXPECT_TRUE(m.translation().isApprox(Eigen::Vector3d(1, 2, 0)));
+  EXPECT_NEAR(pl::yaw_of(m), 0.5, 1e-12);
+}
+
+TEST(Pose, KittiRoundTripAndAutodetect) {
+  TempDir dir;
+  pl::Trajectory t = spiral(50);
+  pl::write_kitti_poses(dir / "p.txt", t);
+  pl::Trajectory r = pl::read_trajectory(dir / "p.txt");
+  ASSERT_EQ(r.format, pl::PoseFormat::Kitti);
+  ASSERT_EQ(r.size(), t.size());
+  EXPECT_FALSE(r.has_times());
+  for (std::size_t i = 0; i < t.size(); ++i) EXPECT_TRUE(r.poses[i].isApprox(t.poses[i], 1e-9)) << i;
+}
+
+TEST(Pose, TumRoundTripKeepsTimes) {
+  TempDir dir;
+  pl::Trajectory t = spiral(30);
+  pl::write_tum_poses(dir / "p.tum", t);
+  pl::Trajectory r = pl::read_trajectory(dir / "p.tum");
+  ASSERT_EQ(r.format, pl::PoseFormat::Tum);
+  ASSERT_EQ(r.size(), 30u);
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    EXPECT_NEAR(r.times[i], t.times[i], 1e-6);
+    EXPECT_TRUE(r.poses[i].isApprox(t.poses[i], 1e-9)) << i;
+  }
+}
+
+TEST(Pose, TumNeedsTimes) {
+  TempDir dir;
+  pl::Trajectory t = spiral(3);
+  t.times.clear();
+  EXPECT_THROW(pl::write_tum_poses(dir / "p.tum", t), pl::Error);
+}
+
+TEST(Pose, KittiRotationIsReorthonormalized) {
+  TempDir dir;
+  // A rotation rounded to 4 digits is not orthonormal; the reader projects it back onto SO(3).
+  write_file(dir / "p.txt", "0.7071 -0.7071 0 1 0.7071 0.7071 0 2 0 0 1 3\n");
+  pl::Trajectory r = pl::read_kitti_poses(dir / "p.txt");
+  EXPECT_NEAR((r.poses[0].linear() * r.poses[0].linear().transpose() - Eigen::Matrix3d::Identity()).norm(), 0, 1e-12);
+  EXPECT_NEAR(pl::yaw_of(r.poses[0]), M_PI / 4, 1e-4);
+}
+
+TEST(Pose, MalformedLineNamesFileAndLine) {
+  TempDir dir;
+  write_file(dir / "bad.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n# comment\n1 0 0 0 0 1 0 0 0 0 1\n");
+  try {
+    pl::read_kitti_poses(dir / "bad.txt");
+    FAIL() << "no error";
+  } catch (const pl::Error& e) {
+    std::string m = e.what();
+    EXPECT_NE(m.find("bad.txt:3"), std::string::npos) << m;
+    EXPECT_NE(m.find("12 numbers"), std::string::npos) << m;
+  }
+  write_file(dir / "bad2.txt", "0 1 2 3 0 0 0 1\n0.1 1 2 x 0 0 0 1\n");
+  try {
+    pl::read_tum_poses(dir / "bad2.txt");
+    FAIL() << "no error";
+  } catch (const pl::Error& e) {
+    std::string m = e.what();
+    EXPECT_NE(m.find("bad2.txt:2"), std::string::npos) << m;
+    EXPECT_NE(m.find("field 4"), std::string::npos) << m;
+  }
+  write_file(dir / "odd.txt", "1 2 3\n");
+  EXPECT_THROW(pl::read_trajectory(dir / "odd.txt"), pl::Error);
+  EXPECT_THROW(pl::read_trajectory(dir / "missing.txt"), pl::Error);
+}

@@ -1,0 +1,172 @@
+// pl-dataset: what a drive folder holds, and its ground-truth poses.
+#include <algorithm>
+#include <cstdio>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "pl/common/cli.hpp"
+#include "pl/common/dataset.hpp"
+#include "pl/common/error.hpp"
+#include "pl/common/progress.hpp"
+#include "pl/common/voxel.hpp"
+
+namespace {
+
+const char* kUsage =
+    "usage: pl-dataset info DIR [--json] [--sample N]\n"
+    "       pl-dataset poses DIR --out FILE [--format kitti|tum]\n"
+    "\n"
+    "info   the layout found, scans, duration, points per scan, beams, ground-truth path length,\n"
+    "       GPS fixes and their status mix, and the sidecar files present (or what is wrong).\n"
+    "       --sample N: read at most N scans, evenly spaced, for the per-scan figures (default 20).\n"
+    "poses  the ground-truth LiDAR poses, one per scan (KITTI: 12 numbers a line; TUM: t x y z qx qy qz qw).\n";
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  std::size_t m = v.size() / 2;
+  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+int cmd_info(const pl::Args& args) {
+  if (args.positional().size() != 2) throw pl::Error("info takes one folder: pl-dataset info DIR");
+  bool as_json = args.has("--json");
+  long long sample = args.get_int("--sample", 20);
+  args.finish();
+  if (sample < 1) throw pl::Error("--sample must be at least 1");
+  pl::Dataset ds = pl::open_dataset(args.positional()[1]);
+  nlohmann::json j;
+  j["dir"] = ds.dir;
+  j["layout"] = ds.layout_name();
+  j["scans"] = ds.size();
+  j["first_frame"] = ds.frame_ids.front();
+  j["last_frame"] = ds.frame_ids.back();
+  double duration = ds.times.back() - ds.times.front();
+  j["duration_s"] = duration;
+  // Frames may be a sample of a longer drive (e.g. KITTI 00 frames 0-9, 94, 95, ...): rate from frame numbers.
+  j["rate_hz"] = ds.size() > 1 && duration > 0 ? static_cast<double>(ds.frame_ids.back() - ds.frame_ids.front()) / duration : 0.0;
+
+  // Per-scan figures from evenly spaced scans.
+  std::size_t count = std::min<std::size_t>(ds.size(), static_cast<std::size_t>(sample));
+  std::vector<double> points, rings, kept16, voxel02;
+  pl::Progress progress("reading scans", count);
+  for (std::size_t k = 0; k < count; ++k) {
+    std::size_t i = count == 1 ? 0 : k * (ds.size() - 1) / (count - 1);
+    pl::Scan scan = ds.load_scan(i);
+    auto r = ds.rings(scan);
+    points.push_back(static_cast<double>(scan.size()));
+    rings.push_back(r.empty() ? 0.0 : 1.0 + *std::max_element(r.begin(), r.end()));
+    int every = std::max(1, ds.meta.sensor.beams / 16);
+    if (!scan.empty()) {
+      kept16.push_back(static_cast<double>(pl::keep_every_kth_ring(scan, r, every).size()) / static_cast<double>(scan.size()));
+      voxel02.push_back(static_cast<double>(pl::voxel_downsample(scan, 0.2).size()));
+    }
+    progress.update(k + 1);
+  }
+  progress.finish();
+  j["sampled_scans"] = count;
+  j["points_per_scan"] = {{"min", *std::min_element(points.begin(), points.end())},
+                          {"median", median_of(points)},
+                          {"max", *std::max_element(points.begin(), points.end())}};
+  j["beams"] = {{"sensor", ds.meta.sensor.model},
+                {"table", ds.meta.sensor.beams},
+                {"rings_found_median", median_of(rings)},
+                {"rings_found_min", *std::min_element(rings.begin(), rings.end())},
+                {"rings_found_max", *std::max_element(rings.begin(), rings.end())},
+                {"ring_method", ds.meta.sensor.point_order == "laser-by-laser" ? "azimuth wrap" : "vertical angle table"},
+                {"sixteen_beam_share_median", median_of(kept16)},
+                {"voxel_0.2m_points_median", median_of(voxel02)}};
+
+  if (ds.has_ground_truth()) {
+    double length = 0;
+    for (std::size_t i = 1; i < ds.ground_truth.size(); ++i)
+      length += (ds.ground_truth.poses[i].translation() - ds.ground_truth.poses[i - 1].translation()).norm();
+    j["ground_truth"] = {{"poses", ds.ground_truth.size()}, {"path_length_m", length}};
+  } else {
+    j["ground_truth"] = nullptr;
+  }
+  if (!ds.gps.empty()) {
+    std::map<std::string, std::size_t> mix;
+    std::vector<double> stds;
+    for (const auto& f : ds.gps) {
+      ++mix[pl::gps_status_name(f.status)];
+      stds.push_back(f.std_m);
+    }
+    j["gps"] = {{"fixes", ds.gps.size()}, {"status", mix}, {"std_m_median", median_of(stds)}};
+  } else {
+    j["gps"] = nullptr;
+  }
+  j["encoder_samples"] = ds.encoder.size();
+  j["odometry_samples"] = ds.odometry.size();
+  j["sidecars"] = ds.sidecars;
+  if (ds.meta.origin) j["origin"] = {{"lat", ds.meta.origin->lat_deg}, {"lon", ds.meta.origin->lon_deg}, {"alt", ds.meta.origin->alt_m}};
+
+  if (as_json) {
+    std::printf("%s\n", j.dump(2).c_str());
+    return 0;
+  }
+  std::printf("dataset        %s\n", ds.dir.c_str());
+  std::printf("layout         %s\n", ds.layout_name());
+  std::printf("scans          %zu (frames %ld..%ld), %.1f s at %.2f Hz\n", ds.size(), ds.frame_ids.front(),
+              ds.frame_ids.back(), duration, j["rate_hz"].get<double>());
+  std::printf("points/scan    min %.0f, median %.0f, max %.0f (%zu scans read)\n", j["points_per_scan"]["min"].get<double>(),
+              median_of(points), j["points_per_scan"]["max"].get<double>(), count);
+  std::printf("beams          %s, %d in the table; rings found per scan: median %.0f (min %.0f, max %.0f) by %s\n",
+              ds.meta.sensor.model.c_str(), ds.meta.sensor.beams, median_of(rings), j["beams"]["rings_found_min"].get<double>(),
+              j["beams"]["rings_found_max"].get<double>(), j["beams"]["ring_method"].get<std::string>().c_str());
+  std::printf("16 beams       keep %.1f %% of the points; 0.2 m voxels leave %.0f points a scan (medians)\n",
+              100.0 * median_of(kept16), median_of(voxel02));
+  if (ds.has_ground_truth())
+    std::printf("ground truth   %zu poses, path length %.1f m\n", ds.ground_truth.size(), j["ground_truth"]["path_length_m"].get<double>());
+  else
+    std::printf("ground truth   none (no poses.txt)\n");
+  if (!ds.gps.empty()) {
+    std::printf("gps            %zu fixes, median std %.3f m:", ds.gps.size(), j["gps"]["std_m_median"].get<double>());
+    for (const auto& [name, n] : j["gps"]["status"].items())
+      std::printf(" %s %.1f %%", name.c_str(), 100.0 * n.get<double>() / static_cast<double>(ds.gps.size()));
+    std::printf("\n");
+  } else {
+    std::printf("gps            none\n");
+  }
+  if (!ds.encoder.empty()) std::printf("encoder        %zu samples\n", ds.encoder.size());
+  if (!ds.odometry.empty()) std::printf("odometry       %zu samples\n", ds.odometry.size());
+  std::string side;
+  for (const auto& s : ds.sidecars) side += (side.empty() ? "" : ", ") + s;
+  std::printf("sidecars       %s\n", side.empty() ? "none" : side.c_str());
+  if (ds.meta.origin)
+    std::printf("origin         lat %.9f, lon %.9f, alt %.3f m\n", ds.meta.origin->lat_deg, ds.meta.origin->lon_deg,
+                ds.meta.origin->alt_m);
+  return 0;
+}
+
+int cmd_poses(const pl::Args& args) {
+  if (args.positional().size() != 2) throw pl::Error("poses takes one folder: pl-dataset poses DIR --out FILE");
+  std::string out = args.require("--out", "FILE (where to write the poses)");
+  std::string fmt_name = args.get_or("--format", "kitti");
+  args.finish();
+  auto fmt = pl::parse_pose_format(fmt_name);
+  if (!fmt) throw pl::Error("--format takes kitti or tum, got \"" + fmt_name + "\"");
+  pl::Dataset ds = pl::open_dataset(args.positional()[1]);
+  if (!ds.has_ground_truth())
+    throw pl::Error(ds.dir + ": no ground truth (a KITTI odometry folder needs poses.txt; a raw drive needs oxts/)");
+  pl::write_trajectory(out, ds.ground_truth, *fmt);
+  std::printf("wrote %zu ground-truth LiDAR poses to %s (%s)\n", ds.ground_truth.size(), out.c_str(), fmt_name.c_str());
+  return 0;
+}
+
+int body(int argc, char** argv) {
+  if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
+    std::fputs(kUsage, argc < 2 ? stderr : stdout);
+    return argc < 2 ? 2 : 0;
+  }
+  pl::Args args(argc, argv, 1, {"--json"});
+  std::string cmd = argv[1];
+  if (cmd == "info") return cmd_info(args);
+  if (cmd == "poses") return cmd_poses(args);
+  throw pl::Error("unknown command \"" + cmd + "\" (info or poses; see --help)");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) { return pl::run_cli("pl-dataset", body, argc, argv); }
