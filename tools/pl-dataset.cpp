@@ -1,5 +1,6 @@
 // pl-dataset: what a drive folder holds, and its ground-truth poses.
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -16,11 +17,15 @@ namespace {
 const char* kUsage =
     "usage: pl-dataset info DIR [--json] [--sample N]\n"
     "       pl-dataset poses DIR --out FILE [--format kitti|tum]\n"
+    "       pl-dataset scans DIR [--beams 16] [--fov 360] [--min-range 2] [--max-range 100] [--voxel 0.2]\n"
+    "                           [--timing FILE.csv]\n"
     "\n"
     "info   the layout found, scans, duration, points per scan, beams, ground-truth path length,\n"
     "       GPS fixes and their status mix, and the sidecar files present (or what is wrong).\n"
     "       --sample N: read at most N scans, evenly spaced, for the per-scan figures (default 20).\n"
-    "poses  the ground-truth LiDAR poses, one per scan (KITTI: 12 numbers a line; TUM: t x y z qx qy qz qw).\n";
+    "poses  the ground-truth LiDAR poses, one per scan (KITTI: 12 numbers a line; TUM: t x y z qx qy qz qw).\n"
+    "scans  prepares every scan as the localizer does (beam choice, field-of-view and range crops, voxel\n"
+    "       grid) and reports points in and out; --timing writes frame,points_in,points_out,prepare_ms.\n";
 
 double median_of(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -155,6 +160,50 @@ int cmd_poses(const pl::Args& args) {
   return 0;
 }
 
+int cmd_scans(const pl::Args& args) {
+  if (args.positional().size() != 2) throw pl::Error("scans takes one folder: pl-dataset scans DIR");
+  pl::ScanPrepConfig cfg;
+  cfg.beams = static_cast<int>(args.get_int("--beams", 0));
+  cfg.fov_deg = args.get_double("--fov", cfg.fov_deg);
+  cfg.min_range_m = args.get_double("--min-range", cfg.min_range_m);
+  cfg.max_range_m = args.get_double("--max-range", cfg.max_range_m);
+  cfg.voxel_m = args.get_double("--voxel", 0.2);
+  auto timing_path = args.get("--timing");
+  args.finish();
+  if (cfg.fov_deg <= 0 || cfg.fov_deg > 360) throw pl::Error("--fov takes degrees in (0, 360]");
+  pl::Dataset ds = pl::open_dataset(args.positional()[1]);
+  cfg.sensor_beams = ds.meta.sensor.beams;
+  std::FILE* timing = nullptr;
+  if (timing_path) {
+    timing = std::fopen(timing_path->c_str(), "w");
+    if (!timing) throw pl::Error(*timing_path + ": cannot write");
+    std::fprintf(timing, "frame,points_in,points_out,prepare_ms\n");
+  }
+  std::vector<double> in, out, ms;
+  pl::Progress progress("preparing scans", ds.size());
+  for (std::size_t i = 0; i < ds.size(); ++i) {
+    pl::Scan scan = ds.load_scan(i);
+    auto t0 = std::chrono::steady_clock::now();
+    std::vector<std::uint16_t> rings;
+    if (cfg.beams > 0 && cfg.beams < cfg.sensor_beams) rings = ds.rings(scan);
+    pl::Scan prepared = pl::prepare_scan(scan, rings, cfg);
+    double elapsed = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    in.push_back(static_cast<double>(scan.size()));
+    out.push_back(static_cast<double>(prepared.size()));
+    ms.push_back(elapsed);
+    if (timing) std::fprintf(timing, "%ld,%zu,%zu,%.4f\n", ds.frame_ids[i], scan.size(), prepared.size(), elapsed);
+    progress.update(i + 1);
+  }
+  progress.finish();
+  if (timing && std::fclose(timing) != 0) throw pl::Error(*timing_path + ": write failed");
+  std::printf("prepared %zu scans: %s beams, %.0f deg field of view, %.1f-%.1f m, %.2f m voxels\n", ds.size(),
+              cfg.beams > 0 ? std::to_string(cfg.beams).c_str() : "all", cfg.fov_deg, cfg.min_range_m, cfg.max_range_m, cfg.voxel_m);
+  std::printf("points a scan: median %.0f in, %.0f out; median %.2f ms a scan (ring + beams + crops + voxels)\n",
+              median_of(in), median_of(out), median_of(ms));
+  if (timing_path) std::printf("per-scan figures in %s\n", timing_path->c_str());
+  return 0;
+}
+
 int body(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
     std::fputs(kUsage, argc < 2 ? stderr : stdout);
@@ -164,7 +213,8 @@ int body(int argc, char** argv) {
   std::string cmd = argv[1];
   if (cmd == "info") return cmd_info(args);
   if (cmd == "poses") return cmd_poses(args);
-  throw pl::Error("unknown command \"" + cmd + "\" (info or poses; see --help)");
+  if (cmd == "scans") return cmd_scans(args);
+  throw pl::Error("unknown command \"" + cmd + "\" (info, poses or scans; see --help)");
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <numeric>
 
 #include "pl/common/error.hpp"
+#include "pl/common/voxel.hpp"
 
 namespace pl {
 
@@ -43,19 +44,20 @@ std::vector<std::uint16_t> rings_from_azimuth(const Scan& scan) {
   std::vector<std::uint16_t> rings(scan.size());
   std::uint16_t ring = 0;
   bool went_round_back = false;  // guards against noise flipping the sign near straight ahead
-  float prev = 0.0f;
+  bool prev_front_right = false;  // previous azimuth in (-90, 0) deg
+  // Only a crossing of straight ahead counts: near the back the sign flips at +-180 deg, and range
+  // noise there makes it flip back and forth. The quadrant tests need no atan2: azimuth in
+  // (-90, 0) deg is x > 0, y < 0; in [0, 90) deg is x > 0, y >= 0; beyond +-90 deg is x < 0.
   for (std::size_t i = 0; i < scan.size(); ++i) {
-    float az = std::atan2(scan[i].y, scan[i].x);
-    // Only a crossing of straight ahead counts: near the back the sign flips at +-180 deg, and
-    // range noise there makes it flip back and forth.
-    constexpr float kQuarter = static_cast<float>(M_PI / 2);
-    if (i > 0 && prev < 0.0f && prev > -kQuarter && az >= 0.0f && az < kQuarter && went_round_back) {
+    const PointXYZI& p = scan[i];
+    bool front = p.x > 0.0f;
+    if (prev_front_right && front && p.y >= 0.0f && went_round_back) {
       if (ring < 65535) ++ring;
       went_round_back = false;
     }
-    if (std::abs(az) > kQuarter) went_round_back = true;
+    if (p.x < 0.0f) went_round_back = true;
+    prev_front_right = front && p.y < 0.0f;
     rings[i] = ring;
-    prev = az;
   }
   // The last laser's final return can land just past straight ahead and open a ring of its own:
   // a last ring that never went round the back and is tiny next to the one before is that tail.
@@ -124,6 +126,22 @@ Scan crop_range(const Scan& scan, double min_m, double max_m) {
     double r2 = static_cast<double>(p.x) * p.x + static_cast<double>(p.y) * p.y + static_cast<double>(p.z) * p.z;
     if (r2 >= lo && r2 < hi) out.push_back(p);
   }
+  return out;
+}
+
+Scan prepare_scan(const Scan& scan, const std::vector<std::uint16_t>& rings, const ScanPrepConfig& cfg) {
+  Scan out;
+  if (cfg.beams > 0 && cfg.beams < cfg.sensor_beams) {
+    if (cfg.sensor_beams % cfg.beams != 0)
+      throw Error("cannot keep " + std::to_string(cfg.beams) + " of " + std::to_string(cfg.sensor_beams) +
+                  " beams evenly: choose a divisor of " + std::to_string(cfg.sensor_beams));
+    out = keep_every_kth_ring(scan, rings, cfg.sensor_beams / cfg.beams);
+  } else {
+    out = scan;
+  }
+  out = crop_fov(out, cfg.fov_deg);
+  out = crop_range(out, cfg.min_range_m, cfg.max_range_m);
+  if (cfg.voxel_m > 0.0) out = voxel_downsample(out, cfg.voxel_m);
   return out;
 }
 

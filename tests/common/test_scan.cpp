@@ -117,3 +117,22 @@ TEST(Scan, BinRoundTripAndBadSize) {
     EXPECT_NE(std::string(e.what()).find("16 bytes a point"), std::string::npos) << e.what();
   }
 }
+
+TEST(Scan, PrepareScanChainsTheSteps) {
+  std::vector<std::uint16_t> truth;
+  pl::Scan scan = laser_by_laser(pl::hdl64_vertical_angles_deg(), truth);
+  pl::ScanPrepConfig cfg;
+  cfg.beams = 16;
+  cfg.fov_deg = 180.0;
+  pl::Scan s = pl::prepare_scan(scan, truth, cfg);
+  // A quarter of the beams, half of the turn.
+  EXPECT_NEAR(static_cast<double>(s.size()) / scan.size(), 0.125, 0.005);
+  for (const auto& p : s) {
+    EXPECT_GE(p.x, 0.0f);
+    EXPECT_EQ(static_cast<int>(p.intensity) % 4, 0);
+  }
+  cfg.voxel_m = 1.0;
+  EXPECT_LT(pl::prepare_scan(scan, truth, cfg).size(), s.size() / 2);
+  cfg.beams = 20;
+  EXPECT_THROW(pl::prepare_scan(scan, truth, cfg), pl::Error);
+}

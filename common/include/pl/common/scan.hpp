@@ -31,4 +31,18 @@ Scan crop_fov(const Scan& scan, double fov_deg, double center_deg = 0.0);
 // Keeps the points with min <= range < max (range in the xy plane and z: the Euclidean norm).
 Scan crop_range(const Scan& scan, double min_m, double max_m);
 
+// The scan preparation the localizer and the map builder apply, as one config with defaults.
+struct ScanPrepConfig {
+  int beams = 0;             // keep this many of the sensor's beams (every k-th ring); 0 keeps all
+  int sensor_beams = 64;     // the sensor's beam count (64 for KITTI's HDL-64E)
+  double fov_deg = 360.0;    // horizontal field of view kept, centred straight ahead
+  double min_range_m = 2.0;  // drops returns from the vehicle itself
+  double max_range_m = 100.0;
+  double voxel_m = 0.0;      // voxel-grid downsampling; 0 keeps every point
+};
+
+// Beam choice, field-of-view crop, range crop, then voxel downsampling. `rings` holds one ring per
+// point (needed only when cfg.beams selects fewer beams than the sensor has).
+Scan prepare_scan(const Scan& scan, const std::vector<std::uint16_t>& rings, const ScanPrepConfig& cfg);
+
 }  // namespace pl

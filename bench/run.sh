@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Runs every benchmark, with the real data beside the repository when it is there.
+#   bench/run.sh BIN_DIR
+set -euo pipefail
+bin=${1:?usage: bench/run.sh BIN_DIR}
+root=$(cd "$(dirname "$0")/.." && pwd)
+data=$("$root/tools/shared-data.sh" || true)
+scan=""
+if [[ -n "$data" ]]; then scan="$data/kitti-raw-2011_09_26_drive_0005_sync/velodyne_points/data/0000000000.bin"; fi
+
+echo "== bench_voxel: voxel grid vs pcl::VoxelGrid"
+"$bin/bench_voxel" $scan

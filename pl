@@ -1,0 +1,84 @@
+#!/usr/bin/env bash
+# PointLocalization: set-up, build, demo, tests and benchmarks in one command.
+#   ./pl demo    install what is missing, build Release, run the main job and print its result
+#   ./pl test    install what is missing, build Debug with ASan+UBSan, run every test
+#   ./pl bench   install what is missing, build Release, run every benchmark in bench/
+#   ./pl build   install what is missing and build Release only
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+cd "$ROOT"
+JOBS=${PL_JOBS:-$(nproc 2>/dev/null || echo 2)}
+
+say() { printf '\033[1m==> %s\033[0m\n' "$*" >&2; }
+
+usage() {
+  sed -n '2,7s/^# \{0,1\}//p' "$0"
+  exit "${1:-0}"
+}
+
+# Installs the Debian packages in deploy/debian-packages.txt that are not installed yet.
+ensure_packages() {
+  local missing=() pkg
+  while read -r pkg; do
+    [[ -z "$pkg" || "$pkg" == \#* ]] && continue
+    dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
+  done < deploy/debian-packages.txt
+  [[ ${#missing[@]} -eq 0 ]] && return 0
+  if [[ $(id -u) -eq 0 ]]; then
+    say "installing ${#missing[@]} Debian packages: ${missing[*]}"
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq
+    apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  else
+    echo "These Debian packages are missing. Install them, then run ./pl again:" >&2
+    echo "  sudo apt-get install -y --no-install-recommends ${missing[*]}" >&2
+    exit 1
+  fi
+}
+
+# build DIR CMAKE_ARGS...: configure once, then build incrementally.
+build() {
+  local dir=$1
+  shift
+  if [[ ! -f "$dir/build.ninja" ]]; then
+    say "configuring $dir"
+    cmake -S . -B "$dir" -G Ninja "$@" >/dev/null
+  fi
+  say "building $dir"
+  cmake --build "$dir" -j "$JOBS"
+}
+
+build_release() { build build/release -DCMAKE_BUILD_TYPE=Release; }
+
+cmd_demo() {
+  ensure_packages
+  build_release
+  bash tools/demo.sh build/release/bin build/demo
+}
+
+cmd_test() {
+  ensure_packages
+  build build/asan -DCMAKE_BUILD_TYPE=Debug -DPL_SANITIZE=ON
+  say "running the tests"
+  # Leak checking stays on; UBSan reports fail the test (-fno-sanitize-recover at build time).
+  export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}
+  export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}
+  export PL_NO_PROGRESS=1
+  ctest --test-dir build/asan --output-on-failure -j "$JOBS"
+}
+
+cmd_bench() {
+  ensure_packages
+  build_release
+  bash bench/run.sh build/release/bin
+}
+
+case "${1:-}" in
+  demo) cmd_demo ;;
+  test) cmd_test ;;
+  bench) cmd_bench ;;
+  build) ensure_packages && build_release ;;
+  -h | --help | help) usage 0 ;;
+  *) usage 2 ;;
+esac
