@@ -23,8 +23,11 @@ Pose make_pose(double x, double y, double z, double roll, double pitch, double y
 double yaw_of(const Pose& pose) { return std::atan2(pose.linear()(1, 0), pose.linear()(0, 0)); }
 
 double rotation_angle(const Pose& pose) {
-  double c = (pose.linear().trace() - 1.0) * 0.5;
-  return std::acos(std::clamp(c, -1.0, 1.0));
+  // atan2 of sin (from the skew-symmetric part) and cos (from the trace): small angles keep their
+  // precision, which acos of the trace alone loses near zero.
+  const Eigen::Matrix3d& r = pose.linear();
+  Eigen::Vector3d w(r(2, 1) - r(1, 2), r(0, 2) - r(2, 0), r(1, 0) - r(0, 1));
+  return std::atan2(0.5 * w.norm(), 0.5 * (r.trace() - 1.0));
 }
 
 Eigen::Matrix3d orthonormalize(const Eigen::Matrix3d& r) {

@@ -104,3 +104,7 @@ TEST(Pose, MalformedLineNamesFileAndLine) {
   EXPECT_THROW(pl::read_trajectory(dir / "odd.txt"), pl::Error);
   EXPECT_THROW(pl::read_trajectory(dir / "missing.txt"), pl::Error);
 }
+
+TEST(Pose, RotationAngleKeepsSmallAngles) {
+  for (double a : {1e-9, 1e-6, 1e-3, 0.5, 3.0}) EXPECT_NEAR(pl::rotation_angle(pl::make_pose(0, 0, 0, 0, 0, a)), a, 1e-12 + 1e-9 * a);
+}

@@ -1,0 +1,28 @@
+// Text tables and JSON objects for the pl-eval results.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "pl/eval/ape.hpp"
+#include "pl/eval/kitti_metrics.hpp"
+#include "pl/eval/timing.hpp"
+
+namespace pl::eval {
+
+// Keys: alignment, matched, gt_poses, coverage, mean, median, rmse, std, max,
+// lateral/longitudinal/vertical {mean_abs, rmse}, vertical_axis, vertical_axis_source, and for se3
+// alignment_transform (the 3x4 rows applied to the estimate). Keys keep this order.
+nlohmann::ordered_json ape_json(const ApeResult& r);
+std::string ape_text(const ApeResult& r, const std::string& est_path, const std::string& gt_path);
+
+// Keys: pairs, segments, path_length_m, time_source, translation_pct, rotation_deg_per_100m,
+// by_length [{length_m, ...}], by_speed [{speed_min_kmh, speed_max_kmh, ...}].
+nlohmann::ordered_json kitti_json(const KittiResult& r);
+std::string kitti_text(const KittiResult& r, const std::string& est_path, const std::string& gt_path);
+
+// Keys: column, count, min, mean, p50, p90, p99, max, percentiles, histogram {edges, counts}.
+nlohmann::ordered_json timing_json(const TimingColumn& c, const TimingStats& s, const Histogram& h);
+std::string timing_text(const TimingColumn& c, const TimingStats& s, const Histogram& h, const std::string& path);
+
+}  // namespace pl::eval
