@@ -1,4 +1,4 @@
-#include "pl/eval/svg.hpp"
+#include "pl/common/svg.hpp"
 
 #include <gtest/gtest.h>
 

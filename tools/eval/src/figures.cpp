@@ -7,7 +7,7 @@
 #include <system_error>
 
 #include "pl/common/error.hpp"
-#include "pl/eval/svg.hpp"
+#include "pl/common/svg.hpp"
 
 namespace pl::eval {
 

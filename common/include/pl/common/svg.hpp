@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-namespace pl::eval {
+namespace pl {
 
 // "Nice" tick positions (steps of 1, 2 or 5 times a power of ten) covering [lo, hi], about
 // `target` of them.
@@ -57,4 +57,4 @@ class SvgPlot {
   std::vector<Series> series_;
 };
 
-}  // namespace pl::eval
+}  // namespace pl

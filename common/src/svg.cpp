@@ -1,4 +1,4 @@
-#include "pl/eval/svg.hpp"
+#include "pl/common/svg.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 
 #include "pl/common/error.hpp"
 
-namespace pl::eval {
+namespace pl {
 
 namespace {
 
@@ -341,4 +341,4 @@ void SvgPlot::save(const std::string& path) const {
   if (!out) throw Error(path + ": write failed (disk full?)");
 }
 
-}  // namespace pl::eval
+}  // namespace pl
