@@ -10,3 +10,7 @@ if [[ -n "$data" ]]; then scan="$data/kitti-raw-2011_09_26_drive_0005_sync/velod
 
 echo "== bench_voxel: voxel grid vs pcl::VoxelGrid"
 "$bin/bench_voxel" $scan
+
+echo
+echo "== bench_sim: simulated scans per second, one core"
+"$bin/bench_sim"

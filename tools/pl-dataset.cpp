@@ -19,13 +19,17 @@ const char* kUsage =
     "       pl-dataset poses DIR --out FILE [--format kitti|tum]\n"
     "       pl-dataset scans DIR [--beams 16] [--fov 360] [--min-range 2] [--max-range 100] [--voxel 0.2]\n"
     "                           [--timing FILE.csv]\n"
+    "       pl-dataset gps DIR --out FILE.tum [--truth FILE.tum]\n"
     "\n"
     "info   the layout found, scans, duration, points per scan, beams, ground-truth path length,\n"
     "       GPS fixes and their status mix, and the sidecar files present (or what is wrong).\n"
     "       --sample N: read at most N scans, evenly spaced, for the per-scan figures (default 20).\n"
     "poses  the ground-truth LiDAR poses, one per scan (KITTI: 12 numbers a line; TUM: t x y z qx qy qz qw).\n"
     "scans  prepares every scan as the localizer does (beam choice, field-of-view and range crops, voxel\n"
-    "       grid) and reports points in and out; --timing writes frame,points_in,points_out,prepare_ms.\n";
+    "       grid) and reports points in and out; --timing writes frame,points_in,points_out,prepare_ms.\n"
+    "gps    the GPS fixes as positions in the dataset's world frame (TUM, identity rotations);\n"
+    "       --truth writes where the antenna really was at each fix (ground truth + lever arm), so that\n"
+    "       pl-eval ape --est FILE --gt TRUTH measures the receiver.\n";
 
 double median_of(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -204,6 +208,48 @@ int cmd_scans(const pl::Args& args) {
   return 0;
 }
 
+int cmd_gps(const pl::Args& args) {
+  if (args.positional().size() != 2) throw pl::Error("gps takes one folder: pl-dataset gps DIR --out FILE.tum");
+  std::string out = args.require("--out", "FILE.tum (where to write the GPS positions)");
+  auto truth_path = args.get("--truth");
+  args.finish();
+  pl::Dataset ds = pl::open_dataset(args.positional()[1]);
+  if (ds.gps.empty()) throw pl::Error(ds.dir + ": no GPS (a raw drive's oxts/ or a gps.csv)");
+  if (truth_path && !ds.has_ground_truth()) throw pl::Error(ds.dir + ": --truth needs ground-truth poses");
+  pl::Trajectory fixes, truth;
+  fixes.format = truth.format = pl::PoseFormat::Tum;
+  const auto& gt = ds.ground_truth;
+  std::size_t skipped = 0;
+  for (const auto& f : ds.gps) {
+    pl::Pose p = pl::Pose::Identity();
+    p.translation() = ds.to_world(f.position);
+    if (truth_path) {
+      // Ground truth at the fix time (interpolated between scans); fixes outside the drive are left out.
+      if (f.t < gt.times.front() || f.t > gt.times.back()) {
+        ++skipped;
+        continue;
+      }
+      std::size_t i = static_cast<std::size_t>(std::upper_bound(gt.times.begin(), gt.times.end(), f.t) - gt.times.begin());
+      i = std::min(std::max<std::size_t>(i, 1), gt.size() - 1);
+      double s = (f.t - gt.times[i - 1]) / std::max(1e-9, gt.times[i] - gt.times[i - 1]);
+      pl::Pose a = pl::Pose::Identity();
+      a.translation() = pl::interpolate(gt.poses[i - 1], gt.poses[i], s) * ds.meta.vehicle.gps_lever_arm;
+      truth.poses.push_back(a);
+      truth.times.push_back(f.t);
+    }
+    fixes.poses.push_back(p);
+    fixes.times.push_back(f.t);
+  }
+  pl::write_tum_poses(out, fixes);
+  std::printf("wrote %zu GPS positions to %s", fixes.size(), out.c_str());
+  if (truth_path) {
+    pl::write_tum_poses(*truth_path, truth);
+    std::printf(" and the true antenna positions to %s", truth_path->c_str());
+  }
+  std::printf("%s\n", skipped ? (" (" + std::to_string(skipped) + " fixes outside the drive left out)").c_str() : "");
+  return 0;
+}
+
 int body(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
     std::fputs(kUsage, argc < 2 ? stderr : stdout);
@@ -214,7 +260,8 @@ int body(int argc, char** argv) {
   if (cmd == "info") return cmd_info(args);
   if (cmd == "poses") return cmd_poses(args);
   if (cmd == "scans") return cmd_scans(args);
-  throw pl::Error("unknown command \"" + cmd + "\" (info, poses or scans; see --help)");
+  if (cmd == "gps") return cmd_gps(args);
+  throw pl::Error("unknown command \"" + cmd + "\" (info, poses, scans or gps; see --help)");
 }
 
 }  // namespace

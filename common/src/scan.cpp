@@ -40,28 +40,37 @@ void write_kitti_bin(const std::string& path, const Scan& scan) {
   if (std::fclose(f.release()) != 0) throw Error(path + ": write failed (disk full?)");
 }
 
+namespace {
+
+// A monotonic stand-in for the azimuth, counter-clockwise from straight ahead: 0 ahead, 1 left,
+// 2 behind, 3 right, up to 4 (one division, no atan2).
+inline float pseudo_azimuth(float x, float y) {
+  float s = std::abs(x) + std::abs(y);
+  if (s == 0.0f) return 0.0f;
+  if (y >= 0.0f) return x >= 0.0f ? y / s : 1.0f - x / s;
+  return x < 0.0f ? 2.0f - y / s : 3.0f + x / s;
+}
+
+}  // namespace
+
 std::vector<std::uint16_t> rings_from_azimuth(const Scan& scan) {
+  // Within a ring the azimuth only grows (counter-clockwise, one turn from straight ahead); a new
+  // ring starts where it falls back by more than ~20 degrees. Range noise near straight ahead or
+  // behind moves the azimuth by far less, and rings with returns on one side only (open ground,
+  // a 180-degree field of view) still start where the azimuth falls back.
+  constexpr float kFallBack = 0.25f;  // in pseudo-azimuth units (90 deg = 1)
   std::vector<std::uint16_t> rings(scan.size());
   std::uint16_t ring = 0;
-  bool went_round_back = false;  // guards against noise flipping the sign near straight ahead
-  bool prev_front_right = false;  // previous azimuth in (-90, 0) deg
-  // Only a crossing of straight ahead counts: near the back the sign flips at +-180 deg, and range
-  // noise there makes it flip back and forth. The quadrant tests need no atan2: azimuth in
-  // (-90, 0) deg is x > 0, y < 0; in [0, 90) deg is x > 0, y >= 0; beyond +-90 deg is x < 0.
+  float prev = 0.0f;
   for (std::size_t i = 0; i < scan.size(); ++i) {
-    const PointXYZI& p = scan[i];
-    bool front = p.x > 0.0f;
-    if (prev_front_right && front && p.y >= 0.0f && went_round_back) {
-      if (ring < 65535) ++ring;
-      went_round_back = false;
-    }
-    if (p.x < 0.0f) went_round_back = true;
-    prev_front_right = front && p.y < 0.0f;
+    float a = pseudo_azimuth(scan[i].x, scan[i].y);
+    if (i > 0 && prev - a > kFallBack && ring < 65535) ++ring;
     rings[i] = ring;
+    prev = a;
   }
   // The last laser's final return can land just past straight ahead and open a ring of its own:
-  // a last ring that never went round the back and is tiny next to the one before is that tail.
-  if (ring > 0 && !went_round_back) {
+  // a last ring that is tiny next to the one before is that tail.
+  if (ring > 0) {
     std::size_t last = 0, before = 0;
     for (auto r : rings) last += r == ring, before += r == ring - 1;
     if (last * 20 < before)

@@ -116,6 +116,11 @@ void SvgPlot::add_bars(const std::string& label, const std::vector<double>& edge
   series_.push_back({Kind::Bars, label, edges, heights, color, 0.0, false});
 }
 
+void SvgPlot::add_polygons(const std::string& label, const std::vector<double>& x, const std::vector<double>& y,
+                           const std::string& color, double opacity) {
+  series_.push_back({Kind::Polygons, label, x, y, color, opacity, false});
+}
+
 std::string SvgPlot::to_string() const {
   const double left = 84, right = 24, top = 48, bottom = 62;
   const double pw = std::max(10.0, width_ - left - right);
@@ -210,6 +215,24 @@ std::string SvgPlot::to_string() const {
         flush();
         break;
       }
+      case Kind::Polygons: {
+        o += "<g fill=\"" + s.color + "\" fill-opacity=\"" + px(s.size) + "\" stroke=\"none\">\n";
+        std::string pts;
+        auto flush = [&] {
+          if (!pts.empty()) o += "<polygon points=\"" + pts + "\"/>\n";
+          pts.clear();
+        };
+        for (std::size_t i = 0; i < std::min(s.x.size(), s.y.size()); ++i) {
+          if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) {
+            flush();
+            continue;
+          }
+          pts += (pts.empty() ? "" : " ") + px(sx(s.x[i])) + "," + px(sy(s.y[i]));
+        }
+        flush();
+        o += "</g>\n";
+        break;
+      }
       case Kind::Points:
         break;  // drawn after the frame, unclipped, so that markers on the axes show whole
       case Kind::HLine:
@@ -266,7 +289,8 @@ std::string SvgPlot::to_string() const {
           }
           break;
         case Kind::Points:
-          for (std::size_t i = 0; i < n; ++i) cost += inside(sx(s.x[i]), sy(s.y[i])) ? 8 : 0;
+        case Kind::Polygons:
+          for (std::size_t i = 0; i < n; ++i) cost += std::isfinite(s.x[i]) && inside(sx(s.x[i]), sy(s.y[i])) ? 8 : 0;
           break;
         case Kind::HLine:
           if (!s.y.empty() && sy(s.y[0]) >= by && sy(s.y[0]) <= by + bh) cost += 20;
@@ -316,7 +340,7 @@ std::string SvgPlot::to_string() const {
     for (const auto& s : series_) {
       if (s.label.empty()) continue;
       const std::string dash = s.dashed ? " stroke-dasharray=\"6 4\"" : "";
-      if (s.kind == Kind::Bars)
+      if (s.kind == Kind::Bars || s.kind == Kind::Polygons)
         o += "<rect x=\"" + px(lx + 8) + "\" y=\"" + px(y - 9) + "\" width=\"22\" height=\"10\" fill=\"" + s.color +
              "\"/>\n";
       else if (s.kind == Kind::Points)

@@ -17,8 +17,8 @@ using Scan = std::vector<PointXYZI>;
 Scan read_kitti_bin(const std::string& path);
 void write_kitti_bin(const std::string& path, const Scan& scan);
 
-// Ring of every point of a scan stored laser by laser (KITTI): a new ring starts where the azimuth
-// crosses 0 from negative to non-negative after the ring has gone round the back of the sensor.
+// Ring of every point of a scan stored laser by laser (KITTI: each laser one counter-clockwise turn
+// from just left of straight ahead): a new ring starts where the azimuth falls back.
 std::vector<std::uint16_t> rings_from_azimuth(const Scan& scan);
 // Ring of every point from the nearest vertical angle of the sensor's beam table.
 std::vector<std::uint16_t> rings_from_elevation(const Scan& scan, const std::vector<double>& vertical_angles_deg);

@@ -34,12 +34,16 @@ class SvgPlot {
   void add_bars(const std::string& label, const std::vector<double>& edges, const std::vector<double>& heights,
                 const std::string& color);
 
+  // Filled polygons (e.g. footprints in a top view): vertex lists separated by a NaN in x and y.
+  void add_polygons(const std::string& label, const std::vector<double>& x, const std::vector<double>& y,
+                    const std::string& color, double opacity = 0.85);
+
   std::string to_string() const;
   // Throws pl::Error when the file cannot be written.
   void save(const std::string& path) const;
 
  private:
-  enum class Kind { Line, Points, HLine, VLine, Bars };
+  enum class Kind { Line, Points, HLine, VLine, Bars, Polygons };
   struct Series {
     Kind kind;
     std::string label;

@@ -1,0 +1,50 @@
+// A whole simulated drive, written in the dataset layout (velodyne/*.bin, times.txt, poses.txt,
+// encoder.csv, gps.csv, meta.json): what pl-sim runs.
+#pragma once
+
+#include <string>
+
+#include "pl/common/geo.hpp"
+#include "pl/sim/sensors.hpp"
+#include "pl/sim/traffic.hpp"
+#include "pl/sim/world.hpp"
+
+namespace pl::sim {
+
+struct SimOptions {
+  std::string route;            // built-in route, or
+  std::string trajectory_path;  // a KITTI pose file
+  std::string times_path;       // its times (found beside it when empty)
+  std::string out_dir;
+  long long frames = 0;  // 0: the whole route
+  WorldConfig world;
+  TrafficConfig traffic;
+  std::string lidar = "hdl64";
+  double fov_deg = 360.0;
+  std::string gnss_profile;
+  GeoPoint origin{49.011212804, 8.422885042, 112.83};
+  EncoderConfig encoder;
+  GpsConfig gps;
+  std::string preview, map_out;
+  double map_spacing = 0.1;
+  int threads = 0;  // 0: all cores
+  bool force = false;
+};
+
+struct SimReport {
+  std::size_t frames = 0, objects = 0, movable = 0;
+  std::size_t points_min = 0, points_median = 0, points_max = 0;
+  std::size_t encoder_samples = 0, gps_fixes = 0, map_points = 0;
+  std::string gps_mix;
+  double length_m = 0, duration_s = 0, seconds = 0;
+  int threads = 1;
+};
+
+// The trajectory the options describe, and the scan times on it.
+SimTrajectory load_trajectory(const SimOptions& o, std::vector<double>& scan_times);
+
+// Writes the dataset into o.out_dir (through a sibling folder renamed into place at the end, so an
+// interrupted run never leaves a half-written dataset behind).
+SimReport simulate(const SimOptions& o);
+
+}  // namespace pl::sim

@@ -1,0 +1,165 @@
+#include "pl/sim/sensors.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "pl/common/error.hpp"
+#include "pl/common/text.hpp"
+
+namespace pl::sim {
+
+double encoder_resolution(const EncoderConfig& cfg) {
+  return 2.0 * M_PI * cfg.wheel_radius / (cfg.teeth * cfg.edges_per_tooth);
+}
+
+std::vector<EncoderSample> simulate_encoder(const SimTrajectory& path, double t0, double t1, const EncoderConfig& cfg) {
+  std::vector<EncoderSample> out;
+  const double dt = 1.0 / cfg.rate_hz, res = encoder_resolution(cfg);
+  double left = 0.0, right = 0.0;  // true wheel travel, with scale and slip
+  Pose prev = path.pose_at(t0);
+  out.push_back({0.0, 0.0, 0.0});
+  for (long k = 1;; ++k) {
+    double t = t0 + k * dt;
+    if (t > t1 + 1e-9) break;
+    Pose cur = path.pose_at(t);
+    double h0 = yaw_of(prev), h1 = yaw_of(cur);
+    double dtheta = std::remainder(h1 - h0, 2.0 * M_PI);
+    Eigen::Vector2d d = (cur.translation() - prev.translation()).head<2>();
+    double hm = h0 + 0.5 * dtheta;
+    double ds = d.x() * std::cos(hm) + d.y() * std::sin(hm);  // signed: reversing counts backwards
+    double dl = ds - dtheta * cfg.wheel_base / 2, dr = ds + dtheta * cfg.wheel_base / 2;
+    double lateral_acc = std::abs(ds / dt * dtheta / dt);
+    double extra = cfg.slip * lateral_acc;  // the outer wheel slips more in a turn
+    if (dtheta > 0)
+      dr *= 1.0 + extra;
+    else
+      dl *= 1.0 + extra;
+    left += dl * cfg.scale_left;
+    right += dr * cfg.scale_right;
+    out.push_back({t - t0, std::floor(left / res) * res, std::floor(right / res) * res});
+    prev = cur;
+  }
+  return out;
+}
+
+std::vector<GnssProfileEntry> read_gnss_profile(const std::string& dir) {
+  std::string data = dir + "/oxts/data";
+  if (!dir_exists(data)) data = dir + "/data";
+  if (!dir_exists(data))
+    throw Error(dir + ": no OXTS records (expected oxts/data/*.txt or data/*.txt; the KITTI OXTS archives in ../shared/data/kitti-oxts expand with unpack.sh)");
+  std::vector<std::string> files;
+  for (const auto& e : std::filesystem::directory_iterator(data))
+    if (e.path().extension() == ".txt") files.push_back(e.path().string());
+  std::sort(files.begin(), files.end());
+  if (files.empty()) throw Error(data + ": no .txt OXTS records");
+  std::vector<GnssProfileEntry> out;
+  for (const auto& f : files) {
+    LineReader r(f);
+    std::string line;
+    if (!r.next(line)) r.fail("one line of 30 OXTS values");
+    auto v = parse_numbers(r, line, 30, 30, "an OXTS record (30 values)", " \t\r");
+    int mode = static_cast<int>(v[27]);
+    int status = kGpsNone;
+    switch (mode) {  // the same mapping as the dataset reader
+      case 3: case 13: case 21: status = kGpsSingle; break;
+      case 4: case 7: case 8: case 14: case 17: case 18: case 22: status = kGpsDgps; break;
+      case 5: case 9: case 15: case 23: status = kGpsFloat; break;
+      case 6: case 16: case 24: status = kGpsFixed; break;
+      default: break;
+    }
+    out.push_back({v[23], status, static_cast<int>(v[26])});
+  }
+  return out;
+}
+
+double sky_blockage(const World& world, const Eigen::Vector2f& p) {
+  constexpr int kSectors = 36;
+  bool blocked[kSectors] = {};
+  const float kMinElevation = std::tan(40.0f * static_cast<float>(M_PI) / 180.0f);
+  for (const WorldObject& o : world.objects) {
+    if (o.cls != ObjectClass::Building && o.cls != ObjectClass::Tree) continue;
+    Eigen::Vector2f d = o.centre - p;
+    float dist = d.norm(), size = o.half.norm();
+    if (dist > 60.0f) continue;
+    float near = std::max(1.0f, dist - size * 0.7f);
+    if (o.height / near < kMinElevation) continue;
+    float az = std::atan2(d.y(), d.x()), width = std::atan2(size, std::max(dist, 1.0f));
+    for (int k = 0; k < kSectors; ++k) {
+      float sa = (k + 0.5f) * 2.0f * static_cast<float>(M_PI) / kSectors;
+      if (std::abs(std::remainder(sa - az, 2.0f * static_cast<float>(M_PI))) <= width) blocked[k] = true;
+    }
+  }
+  int n = 0;
+  for (bool b : blocked) n += b;
+  return static_cast<double>(n) / kSectors;
+}
+
+std::vector<GpsFix> simulate_gps(const SimTrajectory& path, double t0, double t1, const World& world, const EnuFrame& enu,
+                                 const GpsConfig& cfg, std::mt19937_64& rng) {
+  std::normal_distribution<double> n01(0.0, 1.0);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  std::vector<GpsFix> out;
+  const double dt = 1.0 / cfg.rate_hz;
+  int status = kGpsFixed;
+  double dwell = 0.0;             // time in the current status
+  double burst_left = 0.0;        // multipath burst still running (s)
+  Eigen::Vector2d burst_offset = Eigen::Vector2d::Zero();
+  Eigen::Vector3d bias = Eigen::Vector3d::Zero();  // slowly wandering error of float/single fixes
+  for (long k = 0;; ++k) {
+    double t = t0 + cfg.time_offset + k * dt;
+    if (t > t1 + 1e-9) break;
+    Pose pose = path.pose_at(t);
+    Eigen::Vector3d antenna = pose * cfg.lever_arm;
+    double blocked = sky_blockage(world, antenna.head<2>().cast<float>());
+    double sigma = cfg.sigma_fixed;
+    int want = kGpsFixed;
+    bool outage = false;
+    if (!cfg.profile.empty()) {
+      const auto& e = cfg.profile[std::min<std::size_t>(cfg.profile.size() - 1, static_cast<std::size_t>((t - t0) * 10.0))];
+      want = e.status;
+      outage = e.status == kGpsNone || e.satellites < 4;
+      sigma = std::max(e.std_m, want == kGpsFixed ? cfg.sigma_fixed : cfg.sigma_float * 0.5);
+    } else {
+      want = blocked < 0.35 ? kGpsFixed : blocked < 0.50 ? kGpsFloat : blocked < 0.62 ? kGpsSingle : kGpsNone;
+      outage = want == kGpsNone;
+    }
+    // Status changes need a second of the new conditions (receivers do not flicker every epoch);
+    // getting worse is immediate.
+    dwell += dt;
+    if (want < status || outage) {
+      status = want;
+      dwell = 0.0;
+    } else if (want > status && dwell > 1.0) {
+      status = want;
+      dwell = 0.0;
+    }
+    if (outage || status == kGpsNone) continue;
+    if (cfg.profile.empty()) sigma = status == kGpsFixed ? cfg.sigma_fixed : status == kGpsFloat ? cfg.sigma_float : cfg.sigma_single;
+    // Float and single fixes wander (correlated error); fixed ones are white at 2 cm.
+    double corr = status == kGpsFixed ? 0.0 : 0.95;
+    for (int a = 0; a < 3; ++a) bias[a] = corr * bias[a] + std::sqrt(1 - corr * corr) * sigma * n01(rng);
+    Eigen::Vector3d err = status == kGpsFixed ? Eigen::Vector3d(sigma * n01(rng), sigma * n01(rng), 2 * sigma * n01(rng)) : bias;
+    // Multipath where the sky is blocked (no RTK fix there): metres off for a few seconds, the
+    // reported sigma unchanged.
+    if (burst_left <= 0.0 && status != kGpsFixed && blocked > 0.3 && u01(rng) < cfg.multipath_rate) {
+      burst_left = 1.0 + 2.0 * u01(rng);
+      double ang = 2 * M_PI * u01(rng);
+      burst_offset = (2.0 + 6.0 * u01(rng)) * Eigen::Vector2d(std::cos(ang), std::sin(ang));
+    }
+    if (status == kGpsFixed) burst_left = 0.0;  // a fix regained ends the burst
+    if (burst_left > 0.0) {
+      err.head<2>() += burst_offset;
+      burst_left -= dt;
+    }
+    GpsFix fix;
+    fix.t = t - t0;
+    fix.position = enu.to_geodetic(antenna + err);
+    fix.std_m = sigma;
+    fix.status = status;
+    out.push_back(fix);
+  }
+  return out;
+}
+
+}  // namespace pl::sim

@@ -1,0 +1,197 @@
+#include "pl/sim/simulate.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "pl/common/error.hpp"
+#include "pl/common/meta.hpp"
+#include "pl/common/pcd.hpp"
+#include "pl/common/progress.hpp"
+#include "pl/common/text.hpp"
+#include "pl/sim/lidar.hpp"
+#include "pl/sim/output.hpp"
+
+namespace fs = std::filesystem;
+
+namespace pl::sim {
+
+SimTrajectory load_trajectory(const SimOptions& o, std::vector<double>& scan_times) {
+  scan_times.clear();
+  if (!o.route.empty()) {
+    SimTrajectory t = builtin_route(o.route);
+    for (double s = t.start_time(); s <= t.end_time() + 1e-9; s += 0.1) scan_times.push_back(s);
+    if (o.frames > 0) scan_times.resize(std::min<std::size_t>(scan_times.size(), static_cast<std::size_t>(o.frames)));
+    return t;
+  }
+  std::string times = o.times_path.empty() ? find_times_for(o.trajectory_path) : o.times_path;
+  SimTrajectory t = trajectory_from_kitti(o.trajectory_path, times);
+  scan_times = t.times();
+  if (o.frames > 0) scan_times.resize(std::min<std::size_t>(scan_times.size(), static_cast<std::size_t>(o.frames)));
+  return t;
+}
+
+namespace {
+
+void write_lines(const std::string& path, const std::string& text) {
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "w"), &std::fclose);
+  if (!f || std::fwrite(text.data(), 1, text.size(), f.get()) != text.size()) throw Error(path + ": write failed");
+  if (std::fclose(f.release()) != 0) throw Error(path + ": write failed");
+}
+
+}  // namespace
+
+SimReport simulate(const SimOptions& o) {
+  auto start = std::chrono::steady_clock::now();
+  // Refuse to overwrite a dataset unless told to.
+  if (fs::exists(o.out_dir) && !o.force && !fs::is_empty(o.out_dir))
+    throw Error(o.out_dir + ": exists and is not empty (choose another --out, or add --force to replace it)");
+  LidarModel lidar = lidar_model(o.lidar);
+  lidar.fov_deg = o.fov_deg;
+  GpsConfig gps_cfg = o.gps;
+  if (!o.gnss_profile.empty()) gps_cfg.profile = read_gnss_profile(o.gnss_profile);
+
+  std::vector<double> scan_times;
+  SimTrajectory traj = load_trajectory(o, scan_times);
+  if (scan_times.size() < 2) throw Error("the drive needs at least two scans");
+  const double t0 = scan_times.front(), t1 = scan_times.back();
+  World world = build_world(traj, t0, t1, o.world);
+  Scene scene;
+  scene.bvh = Bvh(world.shapes(scene.info));
+  TrafficConfig tcfg = o.traffic;
+  tcfg.seed = o.world.seed;
+  tcfg.road_half_width = o.world.road_half_width;
+  Traffic traffic(traj, t0, t1, tcfg);
+
+  fs::path out(o.out_dir);
+  fs::path tmp = out.parent_path() / (out.filename().string() + ".partial");
+  fs::remove_all(tmp);
+  fs::create_directories(tmp / "velodyne");
+
+  // Scans in parallel; each frame's noise comes from its own seed, so threads do not change a byte.
+  const std::size_t n = scan_times.size();
+  int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  threads = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(threads), n));
+  std::vector<std::size_t> counts(n, 0);
+  std::atomic<std::size_t> next{0}, done{0};
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
+  Progress progress("simulating scans", n);
+  auto worker = [&] {
+    try {
+      for (std::size_t i = next++; i < n; i = next++) {
+        double t = scan_times[i];
+        Pose pose = traj.pose_at(t);
+        std::mt19937_64 rng(o.world.seed * 0x9E3779B97F4A7C15ull ^ (static_cast<std::uint64_t>(i) * 0xBF58476D1CE4E5B9ull) ^
+                            static_cast<std::uint64_t>(o.world.epoch + 1) * 0x94D049BB133111EBull);
+        std::unique_ptr<Scene> moving;
+        if (traffic.size()) moving = std::make_unique<Scene>(traffic.scene_at(t, pose.translation(), lidar.max_range));
+        Scan scan = cast_scan(lidar, pose, scene, moving.get(), rng);
+        char name[32];
+        std::snprintf(name, sizeof(name), "%06zu.bin", i);
+        write_kitti_bin((tmp / "velodyne" / name).string(), scan);
+        counts[i] = scan.size();
+        progress.update(++done);
+      }
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(failure_mutex);
+      if (!failure) failure = std::current_exception();
+      next = n;
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int k = 0; k < threads; ++k) pool.emplace_back(worker);
+  for (auto& th : pool) th.join();
+  progress.finish();
+  if (failure) std::rethrow_exception(failure);
+
+  // Ground truth and times.
+  std::string times_txt, poses_txt;
+  char buf[512];
+  for (double t : scan_times) {
+    std::snprintf(buf, sizeof(buf), "%.6f\n", t - t0);
+    times_txt += buf;
+    const auto m = traj.pose_at(t).matrix();
+    std::snprintf(buf, sizeof(buf), "%.9f %.9f %.9f %.6f %.9f %.9f %.9f %.6f %.9f %.9f %.9f %.6f\n", m(0, 0), m(0, 1),
+                  m(0, 2), m(0, 3), m(1, 0), m(1, 1), m(1, 2), m(1, 3), m(2, 0), m(2, 1), m(2, 2), m(2, 3));
+    poses_txt += buf;
+  }
+  write_lines((tmp / "times.txt").string(), times_txt);
+  write_lines((tmp / "poses.txt").string(), poses_txt);
+
+  // Wheel encoders and GPS.
+  auto encoder = simulate_encoder(traj, t0, t1, o.encoder);
+  std::string enc = "t,left_m,right_m\n";
+  for (const auto& e : encoder) {
+    std::snprintf(buf, sizeof(buf), "%.4f,%.6f,%.6f\n", e.t, e.left_m, e.right_m);
+    enc += buf;
+  }
+  write_lines((tmp / "encoder.csv").string(), enc);
+  EnuFrame enu(o.origin);
+  std::mt19937_64 gps_rng(o.world.seed * 0x2545F4914F6CDD1Dull + 0x6B5);
+  auto gps = simulate_gps(traj, t0, t1, world, enu, gps_cfg, gps_rng);
+  std::string g = "t,lat,lon,alt,std_m,status\n";
+  std::map<std::string, std::size_t> mix;
+  for (const auto& f : gps) {
+    std::snprintf(buf, sizeof(buf), "%.4f,%.10f,%.10f,%.4f,%.4f,%d\n", f.t, f.position.lat_deg, f.position.lon_deg,
+                  f.position.alt_m, f.std_m, f.status);
+    g += buf;
+    ++mix[gps_status_name(f.status)];
+  }
+  write_lines((tmp / "gps.csv").string(), g);
+
+  DatasetMeta meta;
+  meta.sensor.model = lidar.model;
+  meta.sensor.beams = static_cast<int>(lidar.vertical_deg.size());
+  meta.sensor.vertical_angles_deg = lidar.vertical_deg;
+  meta.sensor.point_order = "laser-by-laser";
+  meta.sensor.fov_deg = lidar.fov_deg;
+  meta.sensor.rate_hz = 10.0;
+  meta.sensor.max_range_m = lidar.max_range;
+  meta.vehicle.wheel_base_m = o.encoder.wheel_base;
+  meta.vehicle.gps_lever_arm = gps_cfg.lever_arm;
+  meta.origin = o.origin;
+  write_meta((tmp / "meta.json").string(), meta);
+
+  // Publish: the finished folder replaces the old one in one rename.
+  if (fs::exists(out)) fs::remove_all(out);
+  fs::rename(tmp, out);
+
+  SimReport r;
+  if (!o.preview.empty()) write_preview(o.preview, world, traj, t0, t1, &traffic);
+  if (!o.map_out.empty()) {
+    std::vector<float> intensity;
+    Points3d cloud = sample_world(world, o.map_spacing, intensity);
+    write_pcd(o.map_out, cloud, intensity);
+    r.map_points = cloud.size();
+  }
+  r.frames = n;
+  r.objects = world.objects.size();
+  for (const auto& obj : world.objects) r.movable += is_movable(obj.cls);
+  std::vector<std::size_t> sorted = counts;
+  std::sort(sorted.begin(), sorted.end());
+  r.points_min = sorted.front();
+  r.points_median = sorted[sorted.size() / 2];
+  r.points_max = sorted.back();
+  r.encoder_samples = encoder.size();
+  r.gps_fixes = gps.size();
+  for (const auto& [name, count] : mix) {
+    std::snprintf(buf, sizeof(buf), "%s%s %.0f %%", r.gps_mix.empty() ? "" : ", ", name.c_str(),
+                  100.0 * static_cast<double>(count) / std::max<std::size_t>(1, gps.size()));
+    r.gps_mix += buf;
+  }
+  if (r.gps_mix.empty()) r.gps_mix = "none";
+  r.length_m = traj.distance_at(t1) - traj.distance_at(t0);
+  r.duration_s = t1 - t0;
+  r.threads = threads;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+}  // namespace pl::sim
