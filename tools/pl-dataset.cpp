@@ -19,7 +19,7 @@ const char* kUsage =
     "       pl-dataset poses DIR --out FILE [--format kitti|tum]\n"
     "       pl-dataset scans DIR [--beams 16] [--fov 360] [--min-range 2] [--max-range 100] [--voxel 0.2]\n"
     "                           [--timing FILE.csv]\n"
-    "       pl-dataset gps DIR --out FILE.tum [--truth FILE.tum]\n"
+    "       pl-dataset gps DIR --out FILE.tum [--truth FILE.tum] [--status rtk-fixed|rtk-float|dgps|single]\n"
     "\n"
     "info   the layout found, scans, duration, points per scan, beams, ground-truth path length,\n"
     "       GPS fixes and their status mix, and the sidecar files present (or what is wrong).\n"
@@ -29,7 +29,7 @@ const char* kUsage =
     "       grid) and reports points in and out; --timing writes frame,points_in,points_out,prepare_ms.\n"
     "gps    the GPS fixes as positions in the dataset's world frame (TUM, identity rotations);\n"
     "       --truth writes where the antenna really was at each fix (ground truth + lever arm), so that\n"
-    "       pl-eval ape --est FILE --gt TRUTH measures the receiver.\n";
+    "       pl-eval ape --est FILE --gt TRUTH measures the receiver; --status keeps the fixes of one status.\n";
 
 double median_of(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -212,7 +212,14 @@ int cmd_gps(const pl::Args& args) {
   if (args.positional().size() != 2) throw pl::Error("gps takes one folder: pl-dataset gps DIR --out FILE.tum");
   std::string out = args.require("--out", "FILE.tum (where to write the GPS positions)");
   auto truth_path = args.get("--truth");
+  auto status_name = args.get("--status");
   args.finish();
+  int status = -1;
+  if (status_name) {
+    for (int k = pl::kGpsSingle; k <= pl::kGpsFixed; ++k)
+      if (*status_name == pl::gps_status_name(k)) status = k;
+    if (status < 0) throw pl::Error("--status takes rtk-fixed, rtk-float, dgps or single, got \"" + *status_name + "\"");
+  }
   pl::Dataset ds = pl::open_dataset(args.positional()[1]);
   if (ds.gps.empty()) throw pl::Error(ds.dir + ": no GPS (a raw drive's oxts/ or a gps.csv)");
   if (truth_path && !ds.has_ground_truth()) throw pl::Error(ds.dir + ": --truth needs ground-truth poses");
@@ -221,6 +228,7 @@ int cmd_gps(const pl::Args& args) {
   const auto& gt = ds.ground_truth;
   std::size_t skipped = 0;
   for (const auto& f : ds.gps) {
+    if (status >= 0 && f.status != status) continue;
     pl::Pose p = pl::Pose::Identity();
     p.translation() = ds.to_world(f.position);
     if (truth_path) {
@@ -240,6 +248,7 @@ int cmd_gps(const pl::Args& args) {
     fixes.poses.push_back(p);
     fixes.times.push_back(f.t);
   }
+  if (fixes.poses.empty()) throw pl::Error(ds.dir + ": no GPS fixes" + (status_name ? " with status " + *status_name : std::string()));
   pl::write_tum_poses(out, fixes);
   std::printf("wrote %zu GPS positions to %s", fixes.size(), out.c_str());
   if (truth_path) {

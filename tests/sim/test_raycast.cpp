@@ -65,9 +65,10 @@ class BruteForce {
 
   bool intersect(const Ray& ray, Hit& hit) const {
     Ray r = ray;
+    const double o[3] = {r.origin.x(), r.origin.y(), r.origin.z()}, d[3] = {r.dir.x(), r.dir.y(), r.dir.z()};
     bool found = false;
     for (std::size_t i = 0; i < prims_.size(); ++i) {
-      if (!may_hit(boxes_[i], r)) continue;
+      if (!may_hit(boxes_[i], o, d, r.t_max)) continue;
       Hit h;
       if (pl::sim::intersect(prims_[i], r, h)) {
         hit = h;
@@ -80,17 +81,17 @@ class BruteForce {
   }
 
  private:
-  static bool may_hit(const std::array<double, 6>& box, const Ray& r) {
-    double lo = 0.0, hi = static_cast<double>(r.t_max) + 1e-3;
+  static bool may_hit(const std::array<double, 6>& box, const double* o, const double* d, float t_max) {
+    double lo = 0.0, hi = static_cast<double>(t_max) + 1e-3;
     for (int k = 0; k < 3; ++k) {
-      const double o = r.origin[k], d = r.dir[k];
-      if (d == 0.0) {
-        if (o < box[k] || o > box[k + 3]) return false;
+      if (d[k] == 0.0) {
+        if (o[k] < box[k] || o[k] > box[k + 3]) return false;
         continue;
       }
-      double a = (box[k] - o) / d, b = (box[k + 3] - o) / d;
+      double a = (box[k] - o[k]) / d[k], b = (box[k + 3] - o[k]) / d[k];
       if (a > b) std::swap(a, b);
-      lo = std::max(lo, a), hi = std::min(hi, b);
+      if (a > lo) lo = a;
+      if (b < hi) hi = b;
     }
     return lo <= hi;
   }
@@ -283,6 +284,12 @@ TEST(Raycast, Cylinder) {
   expect_miss(cyl, make_ray(Vector3f(0, 1.01f, 2), Vector3f(1, 0, 0)));
   expect_miss(cyl, make_ray(Vector3f(6.01f, 0, 10), Vector3f(0, 0, -1)));
   expect_miss(cyl, make_ray(Vector3f(0, 0, 2), Vector3f(-1, 0, 0)));
+  // A negative height hangs down from the given centre: the same solid.
+  const Primitive hanging = pl::sim::make_cylinder(Vector3f(5, 0, 4), 1.0f, -4.0f, 0);
+  expect_hit(hanging, make_ray(Vector3f(0, 0, 2), Vector3f(1, 0, 0)), 4.0f, Vector3f(-1, 0, 0));
+  expect_hit(hanging, make_ray(Vector3f(5, 0, 10), Vector3f(0, 0, -1)), 6.0f, Vector3f(0, 0, 1));
+  EXPECT_EQ(pl::sim::bounds_of(hanging).min, pl::sim::bounds_of(cyl).min);
+  EXPECT_EQ(pl::sim::bounds_of(hanging).max, pl::sim::bounds_of(cyl).max);
 }
 
 TEST(Raycast, EllipsoidAlongEachAxis) {
@@ -362,7 +369,7 @@ TEST(Raycast, BoundsContainSurfacePoints) {
       corners.min = corners.min.cwiseMin(p);
       corners.max = corners.max.cwiseMax(p);
     }
-    EXPECT_TRUE(bb.min.isApprox(corners.min, 1e-5f) || (bb.min - corners.min).norm() < tol);
+    EXPECT_TRUE((bb.min - corners.min).norm() < tol);
     EXPECT_TRUE((bb.max - corners.max).norm() < tol);
     for (int k = 0; k < 100; ++k) {
       Vector3f l(u(rng) * half.x(), u(rng) * half.y(), u(rng) * half.z());
@@ -477,11 +484,11 @@ TEST(Raycast, BvhReordersAPermutation) {
 }
 
 TEST(Raycast, BvhMatchesBruteForceMixedScene) {
-  compare_with_brute_force(random_scene(3000, 60.0f, 1), random_rays(20000, 70.0f, 2));
+  compare_with_brute_force(random_scene(3000, 60.0f, 1), random_rays(10000, 70.0f, 2));
 }
 
 TEST(Raycast, BvhMatchesBruteForceDenseScene) {
-  compare_with_brute_force(random_scene(2000, 15.0f, 7), random_rays(20000, 20.0f, 8));
+  compare_with_brute_force(random_scene(2000, 15.0f, 7), random_rays(10000, 20.0f, 8));
 }
 
 TEST(Raycast, BvhMatchesBruteForceGroundGridAndObjects) {
@@ -509,7 +516,7 @@ TEST(Raycast, BvhMatchesBruteForceGroundGridAndObjects) {
   std::vector<Ray> rays;
   for (int s = 0; s < 20; ++s) {
     const Vector3f o = base + Vector3f(ux(rng), uy(rng), 1.7f);
-    for (int k = 0; k < 1000; ++k) {
+    for (int k = 0; k < 500; ++k) {
       const float a = az(rng), e = el(rng);
       rays.push_back(make_ray(o, Vector3f(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e)), 120.0f));
     }

@@ -48,9 +48,9 @@ P prepare(const Primitive& p) {
       v[3] = std::abs(p.b.x()), v[4] = std::abs(p.b.y()), v[5] = std::abs(p.b.z());
       v[6] = std::cos(p.yaw), v[7] = std::sin(p.yaw);
       break;
-    case Shape::Cylinder:
-      v[0] = p.a.x(), v[1] = p.a.y(), v[2] = p.a.z();
-      v[3] = std::abs(p.b.x()), v[4] = p.b.z(), v[5] = p.b.x() * p.b.x();
+    case Shape::Cylinder:  // a negative height hangs down from `a`
+      v[0] = p.a.x(), v[1] = p.a.y(), v[2] = std::min(p.a.z(), p.a.z() + p.b.z());
+      v[3] = std::abs(p.b.x()), v[4] = std::abs(p.b.z()), v[5] = p.b.x() * p.b.x();
       break;
     case Shape::Ellipsoid:
       v[0] = p.a.x(), v[1] = p.a.y(), v[2] = p.a.z();
@@ -394,8 +394,8 @@ Bvh::Bvh(std::vector<Primitive> primitives) {
     return x * y + y * z + z * x;  // half the surface area; only ratios matter
   };
   auto bin_of = [](float c, float lo, float scale) {
-    const int k = static_cast<int>((c - lo) * scale);
-    return std::min(std::max(k, 0), kBins - 1);
+    const float f = (c - lo) * scale;  // clamped as a float: no out-of-range (or NaN) conversion
+    return f > 0.0f ? (f < static_cast<float>(kBins - 1) ? static_cast<int>(f) : kBins - 1) : 0;
   };
 
   nodes_.reserve(2 * n);

@@ -157,8 +157,8 @@ bool is_builtin_route(const std::string& name) { return name == "loop" || name =
 
 SimTrajectory builtin_route(const std::string& name) {
   if (name == "loop") {
-    // A rounded 190 m x 95 m block with a kink on its north side: ~600 m, corners of 12 m radius.
-    std::vector<Eigen::Vector2d> corners = {{0, 0}, {190, 0}, {190, 95}, {120, 95}, {95, 80}, {0, 80}};
+    // A rounded 210 m x 105 m block with a kink on its north side: ~600 m, corners of 12 m radius.
+    std::vector<Eigen::Vector2d> corners = {{0, 0}, {210, 0}, {210, 105}, {135, 105}, {110, 90}, {0, 90}};
     return route_from_waypoints(corners, 12.0, 9.0, [](double s) { return 1.2 * std::sin(s / 95.0) + 0.4 * std::sin(s / 31.0); });
   }
   if (name == "estate") {

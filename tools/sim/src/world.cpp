@@ -259,7 +259,9 @@ class Generator {
     for (double s = s0; s <= s1; s += 1.0) {
       Frame f = frame_at(s);
       occ_.mark_disc(f.pos, static_cast<float>(cfg_.road_half_width) + 0.3f, Occupancy::kRoad);
-      occ_.mark_disc(f.pos, 4.1f, Occupancy::kLane);
+      // The two driving lanes: the ego lane on the path and the oncoming one 3 m to its left
+      // (vehicles 1.8-2.5 m wide); parked cars stand from 4.0 m out.
+      occ_.mark_disc(f.pos, 3.95f, Occupancy::kLane);
     }
   }
 
@@ -334,9 +336,10 @@ class Generator {
   bool parked_vehicle(const Frame& f, float side, float along, bool truck) {
     float road = static_cast<float>(cfg_.road_half_width);
     Vec2 half = truck ? Vec2(5.0f, 1.25f) : Vec2(uniform(2.1f, 2.45f), uniform(0.86f, 0.95f));
-    Vec2 c = at(f, along + half.x(), side * (road - half.y() - 0.2f));
+    // Cars stand in the parking lane; trucks, 2.5 m wide, half up on the pavement.
+    Vec2 c = at(f, along + half.x(), side * (truck ? road - half.y() + 1.0f : road - half.y() - 0.2f));
     float yaw = yaw_of(f) + (chance(0.5f) ? 0.0f : static_cast<float>(M_PI));
-    if (!occ_.free(c, half, yaw, Occupancy::kLane, 0.2f)) return false;
+    if (!occ_.free(c, half, yaw, Occupancy::kLane, 0.0f)) return false;
     occ_.take(c, half, yaw);
     ObjectClass cls = truck ? ObjectClass::ParkedTruck : ObjectClass::ParkedCar;
     WorldObject& o = new_object(cls, c, half, yaw, truck ? 3.8f : 1.5f);
@@ -595,7 +598,7 @@ class Generator {
         Vec2 shift = fwd * (u(0.f, 1.f) < 0.5f ? -1.f : 1.f) * u(2.f, 6.f);
         occ_.release(o.centre, o.half, o.yaw);
         std::uint8_t blocking = o.cls == ObjectClass::Container ? Occupancy::kRoad : Occupancy::kLane;
-        if (occ_.free(o.centre + shift, o.half, o.yaw, blocking, 0.2f)) {
+        if (occ_.free(o.centre + shift, o.half, o.yaw, blocking, 0.0f)) {
           occ_.take(o.centre + shift, o.half, o.yaw);
           o.centre += shift;
           for (auto& p : o.shapes) p.a.head<2>() += shift;
