@@ -194,7 +194,7 @@ class Occupancy {
 
  private:
   static int cell(float v) { return static_cast<int>(std::floor(v / kCell)); }
-  static std::int64_t key(int x, int y) { return (static_cast<std::int64_t>(x) << 32) ^ static_cast<std::uint32_t>(y); }
+  static std::int64_t key(int x, int y) { return grid_key(x, y); }
   std::unordered_map<std::int64_t, std::uint8_t> cells_;
 };
 
@@ -278,13 +278,13 @@ class Generator {
       for (int dx = -reach; dx <= reach; ++dx)
         for (int dy = -reach; dy <= reach; ++dy) {
           if ((dx * dx + dy * dy) * cell * cell > band * band) continue;
-          std::int64_t k = (static_cast<std::int64_t>(cx + dx) << 32) ^ static_cast<std::uint32_t>(cy + dy);
+          std::int64_t k = grid_key(cx + dx, cy + dy);
           if (cells.emplace(k, true).second) order.emplace_back(cx + dx, cy + dy);
         }
     }
     std::unordered_map<std::int64_t, float> heights;
     auto h = [&](int x, int y) {
-      std::int64_t k = (static_cast<std::int64_t>(x) << 32) ^ static_cast<std::uint32_t>(y);
+      std::int64_t k = grid_key(x, y);
       auto it = heights.find(k);
       if (it != heights.end()) return it->second;
       float v = ground_.height_at(x * cell, y * cell);

@@ -62,6 +62,11 @@ struct World {
 // Builds the world along the part of the trajectory from t0 to t1.
 World build_world(const SimTrajectory& path, double t0, double t1, const WorldConfig& cfg);
 
+// Key of a 2-D grid cell, for hash maps over cells.
+inline std::int64_t grid_key(int x, int y) {
+  return static_cast<std::int64_t>(static_cast<std::uint64_t>(static_cast<std::uint32_t>(x)) << 32 | static_cast<std::uint32_t>(y));
+}
+
 // Ground height (road surface) at (x, y): from the path's height near that point.
 class GroundModel {
  public:
@@ -75,7 +80,7 @@ class GroundModel {
   std::vector<Eigen::Vector3f> samples_;
   float cell_ = 10.0f;
   std::vector<std::pair<std::int64_t, std::uint32_t>> index_;  // sorted (cell key, sample)
-  std::int64_t key(int cx, int cy) const { return (static_cast<std::int64_t>(cx) << 32) ^ static_cast<std::uint32_t>(cy); }
+  static std::int64_t key(int cx, int cy) { return grid_key(cx, cy); }
 };
 
 }  // namespace pl::sim
