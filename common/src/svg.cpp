@@ -116,6 +116,21 @@ void SvgPlot::add_bars(const std::string& label, const std::vector<double>& edge
   series_.push_back({Kind::Bars, label, edges, heights, color, 0.0, false});
 }
 
+// The "x,y x,y ..." pixel lists of a series' runs of finite points (a NaN ends a run).
+template <typename SX, typename SY>
+static std::vector<std::string> point_runs(const SvgPlot::Series& s, SX&& sx, SY&& sy) {
+  std::vector<std::string> runs(1);
+  for (std::size_t i = 0; i < std::min(s.x.size(), s.y.size()); ++i) {
+    if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) {
+      if (!runs.back().empty()) runs.emplace_back();
+      continue;
+    }
+    runs.back() += (runs.back().empty() ? "" : " ") + px(sx(s.x[i])) + "," + px(sy(s.y[i]));
+  }
+  if (runs.back().empty()) runs.pop_back();
+  return runs;
+}
+
 void SvgPlot::add_polygons(const std::string& label, const std::vector<double>& x, const std::vector<double>& y,
                            const std::string& color, double opacity) {
   series_.push_back({Kind::Polygons, label, x, y, color, opacity, false});
@@ -198,38 +213,14 @@ std::string SvgPlot::to_string() const {
     switch (s.kind) {
       case Kind::Line: {
         // One polyline per run of finite points.
-        std::string pts;
-        auto flush = [&] {
-          if (!pts.empty())
-            o += "<polyline fill=\"none\" stroke=\"" + s.color + "\" stroke-width=\"" + px(s.size) +
-                 "\" stroke-linejoin=\"round\"" + dash + " points=\"" + pts + "\"/>\n";
-          pts.clear();
-        };
-        for (std::size_t i = 0; i < std::min(s.x.size(), s.y.size()); ++i) {
-          if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) {
-            flush();
-            continue;
-          }
-          pts += (pts.empty() ? "" : " ") + px(sx(s.x[i])) + "," + px(sy(s.y[i]));
-        }
-        flush();
+        for (const std::string& pts : point_runs(s, sx, sy))
+          o += "<polyline fill=\"none\" stroke=\"" + s.color + "\" stroke-width=\"" + px(s.size) +
+               "\" stroke-linejoin=\"round\"" + dash + " points=\"" + pts + "\"/>\n";
         break;
       }
       case Kind::Polygons: {
         o += "<g fill=\"" + s.color + "\" fill-opacity=\"" + px(s.size) + "\" stroke=\"none\">\n";
-        std::string pts;
-        auto flush = [&] {
-          if (!pts.empty()) o += "<polygon points=\"" + pts + "\"/>\n";
-          pts.clear();
-        };
-        for (std::size_t i = 0; i < std::min(s.x.size(), s.y.size()); ++i) {
-          if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) {
-            flush();
-            continue;
-          }
-          pts += (pts.empty() ? "" : " ") + px(sx(s.x[i])) + "," + px(sy(s.y[i]));
-        }
-        flush();
+        for (const std::string& pts : point_runs(s, sx, sy)) o += "<polygon points=\"" + pts + "\"/>\n";
         o += "</g>\n";
         break;
       }

@@ -91,45 +91,40 @@ GroundModel::GroundModel(const SimTrajectory& path, double t0, double t1) {
   std::sort(index_.begin(), index_.end());
 }
 
-float GroundModel::distance_to_path(float x, float y, float cap) const {
+template <typename Fn>
+void GroundModel::for_samples_near(float x, float y, int reach, Fn&& fn) const {
   int cx = static_cast<int>(std::floor(x / cell_)), cy = static_cast<int>(std::floor(y / cell_));
-  int reach = static_cast<int>(std::ceil(cap / cell_));
-  float best = cap * cap;
   for (int dx = -reach; dx <= reach; ++dx)
     for (int dy = -reach; dy <= reach; ++dy) {
       auto k = key(cx + dx, cy + dy);
       auto it = std::lower_bound(index_.begin(), index_.end(), std::make_pair(k, 0u));
       for (; it != index_.end() && it->first == k; ++it) {
         const auto& s = samples_[it->second];
-        float d2 = (s.x() - x) * (s.x() - x) + (s.y() - y) * (s.y() - y);
-        best = std::min(best, d2);
+        fn(s, static_cast<double>(s.x() - x) * (s.x() - x) + static_cast<double>(s.y() - y) * (s.y() - y));
       }
     }
-  return std::sqrt(best);
+}
+
+float GroundModel::distance_to_path(float x, float y, float cap) const {
+  double best = static_cast<double>(cap) * cap;
+  for_samples_near(x, y, static_cast<int>(std::ceil(cap / cell_)), [&](const Eigen::Vector3f&, double d2) { best = std::min(best, d2); });
+  return static_cast<float>(std::sqrt(best));
 }
 
 float GroundModel::height_at(float x, float y) const {
   // Inverse-distance weights over the path samples within 15 m; the nearest sample further out.
-  int cx = static_cast<int>(std::floor(x / cell_)), cy = static_cast<int>(std::floor(y / cell_));
   double wsum = 0.0, hsum = 0.0, best = INFINITY, best_h = samples_.front().z();
   for (int reach = 2; reach <= 64 && wsum == 0.0; reach *= 4) {
-    for (int dx = -reach; dx <= reach; ++dx)
-      for (int dy = -reach; dy <= reach; ++dy) {
-        auto k = key(cx + dx, cy + dy);
-        auto it = std::lower_bound(index_.begin(), index_.end(), std::make_pair(k, 0u));
-        for (; it != index_.end() && it->first == k; ++it) {
-          const auto& s = samples_[it->second];
-          double d2 = (s.x() - x) * (s.x() - x) + (s.y() - y) * (s.y() - y);
-          if (d2 < best) best = d2, best_h = s.z();
-          if (d2 < 225.0) {
-            double w = 1.0 / (d2 + 4.0);
-            wsum += w;
-            hsum += w * s.z();
-          }
-        }
+    for_samples_near(x, y, reach, [&](const Eigen::Vector3f& s, double d2) {
+      if (d2 < best) best = d2, best_h = s.z();
+      if (d2 < 225.0) {
+        double w = 1.0 / (d2 + 4.0);
+        wsum += w;
+        hsum += w * s.z();
       }
+    });
   }
-  return wsum > 0.0 ? static_cast<float>(hsum / wsum) : best_h;
+  return wsum > 0.0 ? static_cast<float>(hsum / wsum) : static_cast<float>(best_h);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -42,7 +42,7 @@ class SvgPlot {
   // Throws pl::Error when the file cannot be written.
   void save(const std::string& path) const;
 
- private:
+ public:
   enum class Kind { Line, Points, HLine, VLine, Bars, Polygons };
   struct Series {
     Kind kind;
@@ -52,6 +52,8 @@ class SvgPlot {
     double size;
     bool dashed;
   };
+
+ private:
 
   std::string title_, x_label_, y_label_;
   bool equal_aspect_ = false;

@@ -77,6 +77,8 @@ class GroundModel {
   const std::vector<Eigen::Vector3f>& samples() const { return samples_; }  // road surface along the path
 
  private:
+  template <typename Fn>
+  void for_samples_near(float x, float y, int reach, Fn&& fn) const;  // fn(sample, squared xy distance)
   std::vector<Eigen::Vector3f> samples_;
   float cell_ = 10.0f;
   std::vector<std::pair<std::int64_t, std::uint32_t>> index_;  // sorted (cell key, sample)
