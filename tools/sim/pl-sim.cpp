@@ -9,7 +9,7 @@
 
 #include "pl/common/cli.hpp"
 #include "pl/common/error.hpp"
-#include "pl/common/pcd.hpp"
+#include "pl/common/cloud_io.hpp"
 #include "pl/common/progress.hpp"
 #include "pl/common/text.hpp"
 #include "pl/sim/simulate.hpp"

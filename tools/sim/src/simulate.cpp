@@ -12,7 +12,7 @@
 
 #include "pl/common/error.hpp"
 #include "pl/common/meta.hpp"
-#include "pl/common/pcd.hpp"
+#include "pl/common/cloud_io.hpp"
 #include "pl/common/progress.hpp"
 #include "pl/common/text.hpp"
 #include "pl/sim/lidar.hpp"
