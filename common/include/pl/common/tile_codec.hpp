@@ -1,0 +1,42 @@
+// Draco encoding of one map tile: positions, normals and intensity. Positions are stored relative to
+// the tile's own box and quantized explicitly on it, so the error bound holds for any map; points
+// are sorted first, so equal tiles give equal bytes.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace pl {
+
+// A tile's points in the map's ENU frame (double: maps may be far from their origin's axes).
+struct TileCloud {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector3f> normals;  // unit length, one per point (may be empty)
+  std::vector<float> intensity;          // in [0, 1], one per point (may be empty)
+  std::size_t size() const { return points.size(); }
+};
+
+struct TileCodecConfig {
+  double max_error_m = 0.005;  // largest position error after decoding, per axis
+  int normal_bits = 10;        // octahedral quantization of the normals
+  int intensity_bits = 8;
+  int speed = 5;               // Draco's encoding speed, 0 (best compression) .. 10 (fastest)
+};
+
+// Encodes the cloud. Throws pl::Error for mismatched attribute counts or non-finite values.
+std::string encode_tile(const TileCloud& cloud, const TileCodecConfig& cfg = {});
+
+// Decodes bytes written by encode_tile (or any Draco point cloud with a position attribute).
+// Throws pl::Error naming what is wrong when the bytes are not a valid Draco point cloud.
+TileCloud decode_tile(std::string_view bytes);
+
+// Number of points and attributes without decoding positions (cheap validation for uploads).
+struct TileSummary {
+  std::size_t points = 0;
+  bool has_normals = false, has_intensity = false;
+};
+TileSummary inspect_tile(std::string_view bytes);  // throws like decode_tile
+
+}  // namespace pl

@@ -1,0 +1,401 @@
+// Draco encoding of map tiles. See tile_codec.hpp for the contract; the notes here are about how.
+//
+// Positions: float32 offsets from a whole-metre tile origin (kept exactly, as doubles, in the geometry
+// metadata entry "pl.origin"), quantized explicitly on the cloud's own box with the fewest bits that
+// keep the error within cfg.max_error_m (float32 rounding is budgeted for).
+// Normals: Draco NORMAL attribute, cfg.normal_bits (octahedral in the sequential coder; the k-d tree
+// coder quantizes each component with that many bits instead). Intensity: a GENERIC float attribute
+// named "intensity" in its attribute metadata, cfg.intensity_bits on the values' own range.
+// Points are sorted (Morton order of the quantized positions, then every other field) so that equal
+// sets of points give equal bytes. Unless cfg.speed is 10 (Draco's "sequential only"), both of
+// Draco's point cloud coders are run and the smaller output is kept: the k-d tree coder wins on
+// positions alone, the sequential one (with octahedral normals) usually wins once noisy normals and
+// intensity come along.
+#include "pl/common/tile_codec.hpp"
+
+#include <draco/compression/decode.h>
+#include <draco/compression/expert_encode.h>
+#include <draco/point_cloud/point_cloud.h>
+#include <draco/point_cloud/point_cloud_builder.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <numeric>
+
+#include "pl/common/error.hpp"
+
+namespace pl {
+namespace {
+
+constexpr const char* kOriginKey = "pl.origin";
+constexpr const char* kNameKey = "name";  // Draco's usual attribute metadata key for a name
+constexpr const char* kIntensityName = "intensity";
+constexpr int kMaxPositionBits = 30;  // Draco's limit for quantization bits
+
+[[noreturn]] void invalid(const std::string& reason) {
+  throw Error("not a valid Draco point cloud: " + reason);
+}
+
+void check_config(const TileCodecConfig& cfg) {
+  if (!(std::isfinite(cfg.max_error_m) && cfg.max_error_m > 0))
+    throw Error("tile codec: max_error_m must be a positive number, got " + std::to_string(cfg.max_error_m));
+  if (cfg.normal_bits < 2 || cfg.normal_bits > 30)
+    throw Error("tile codec: normal_bits must be in [2, 30], got " + std::to_string(cfg.normal_bits));
+  if (cfg.intensity_bits < 1 || cfg.intensity_bits > 30)
+    throw Error("tile codec: intensity_bits must be in [1, 30], got " + std::to_string(cfg.intensity_bits));
+  if (cfg.speed < 0 || cfg.speed > 10)
+    throw Error("tile codec: speed must be in [0, 10], got " + std::to_string(cfg.speed));
+}
+
+void check_cloud(const TileCloud& cloud) {
+  const std::size_t n = cloud.points.size();
+  if (n > static_cast<std::size_t>(std::numeric_limits<int32_t>::max()))
+    throw Error("tile codec: too many points for Draco (" + std::to_string(n) + ")");
+  if (!cloud.normals.empty() && cloud.normals.size() != n)
+    throw Error("tile codec: " + std::to_string(cloud.normals.size()) + " normals for " + std::to_string(n) +
+                " points (give one per point, or none)");
+  if (!cloud.intensity.empty() && cloud.intensity.size() != n)
+    throw Error("tile codec: " + std::to_string(cloud.intensity.size()) + " intensity values for " +
+                std::to_string(n) + " points (give one per point, or none)");
+  for (std::size_t i = 0; i < n; ++i)
+    if (!cloud.points[i].allFinite()) throw Error("tile codec: point " + std::to_string(i) + " is not finite");
+  for (std::size_t i = 0; i < cloud.normals.size(); ++i) {
+    if (!cloud.normals[i].allFinite()) throw Error("tile codec: normal " + std::to_string(i) + " is not finite");
+    if (!(cloud.normals[i].cast<double>().norm() > 1e-6))
+      throw Error("tile codec: normal " + std::to_string(i) + " has zero length");
+  }
+  for (std::size_t i = 0; i < cloud.intensity.size(); ++i)
+    if (!std::isfinite(cloud.intensity[i]))
+      throw Error("tile codec: intensity " + std::to_string(i) + " is not finite");
+}
+
+// The explicit quantization of the positions: a whole-metre origin (double), and Draco's
+// quantization box in offsets from it (float32, as Draco stores it).
+struct PositionQuantization {
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  Eigen::Vector3d min = Eigen::Vector3d::Zero();  // the box's low corner, ENU
+  float box_min[3] = {0, 0, 0};                   // low corner as offsets from origin
+  float range = 1;                                // one range for all three axes
+  int bits = 1;
+  double step = 1;  // range / (2^bits - 1)
+};
+
+PositionQuantization quantize_positions(const std::vector<Eigen::Vector3d>& points, double max_error) {
+  PositionQuantization q;
+  if (points.empty()) {
+    q.step = q.range;
+    return q;
+  }
+  Eigen::Vector3d lo = points.front(), hi = points.front();
+  for (const auto& p : points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  q.origin = lo.array().floor();
+  q.min = lo;
+  const double extent = (hi - lo).maxCoeff();
+  // Float32 rounding: the offset, Draco's subtraction, scaling and rounding on encode, scaling and
+  // addition on decode each err by about half an ulp of numbers up to extent + 1 m. Budget 16 ulps.
+  const double slack = 16.0 * std::ldexp(1.0, -24) * (extent + 1.0);
+  const double budget = max_error - slack;
+  if (budget <= 0)
+    throw Error("tile codec: max_error_m " + std::to_string(max_error) + " cannot be met with float32 offsets in a " +
+                std::to_string(extent) + " m box (use at least " + std::to_string(2 * slack) + " m)");
+  // Draco divides by the range: keep it positive (and no smaller than the extent after rounding).
+  float range = static_cast<float>(std::max(extent, budget));
+  if (static_cast<double>(range) < extent) range = std::nextafter(range, std::numeric_limits<float>::infinity());
+  int bits = 1;
+  while (static_cast<double>(range) / (std::ldexp(1.0, bits) - 1.0) / 2.0 > budget) {
+    if (++bits > kMaxPositionBits)
+      throw Error("tile codec: max_error_m " + std::to_string(max_error) + " needs more than " +
+                  std::to_string(kMaxPositionBits) + " bits in a " + std::to_string(extent) + " m box");
+  }
+  for (int c = 0; c < 3; ++c) q.box_min[c] = static_cast<float>(lo[c] - q.origin[c]);
+  q.range = range;
+  q.bits = bits;
+  q.step = static_cast<double>(range) / (std::ldexp(1.0, bits) - 1.0);
+  return q;
+}
+
+// True when the highest set bit of a is below that of b.
+bool msb_less(uint32_t a, uint32_t b) { return a < b && a < (a ^ b); }
+
+// Morton (Z-order) comparison of integer triples without interleaving the bits.
+bool morton_less(const uint32_t* a, const uint32_t* b) {
+  int axis = 0;
+  uint32_t top = a[0] ^ b[0];
+  for (int c = 1; c < 3; ++c) {
+    const uint32_t d = a[c] ^ b[c];
+    if (msb_less(top, d)) {
+      axis = c;
+      top = d;
+    }
+  }
+  return a[axis] < b[axis];
+}
+
+// The order in which points are handed to Draco: Morton order of the quantized positions, ties
+// broken by every field, so the order depends on the set of points only.
+std::vector<uint32_t> canonical_order(const TileCloud& cloud, const std::vector<Eigen::Vector3f>& normals,
+                                      const PositionQuantization& q) {
+  const std::size_t n = cloud.size();
+  std::vector<uint32_t> cell(3 * n);
+  const double max_q = std::ldexp(1.0, q.bits) - 1.0;
+  for (std::size_t i = 0; i < n; ++i)
+    for (int c = 0; c < 3; ++c) {
+      const double v = std::round((cloud.points[i][c] - q.min[c]) / q.step);
+      cell[3 * i + c] = static_cast<uint32_t>(std::clamp(v, 0.0, max_q));
+    }
+  std::vector<uint32_t> order(n);
+  std::iota(order.begin(), order.end(), 0u);
+  auto less = [&](uint32_t a, uint32_t b) {
+    const uint32_t* ca = &cell[3 * a];
+    const uint32_t* cb = &cell[3 * b];
+    if (ca[0] != cb[0] || ca[1] != cb[1] || ca[2] != cb[2]) return morton_less(ca, cb);
+    if (!normals.empty()) {
+      for (int c = 0; c < 3; ++c)
+        if (normals[a][c] != normals[b][c]) return normals[a][c] < normals[b][c];
+    }
+    if (!cloud.intensity.empty() && cloud.intensity[a] != cloud.intensity[b])
+      return cloud.intensity[a] < cloud.intensity[b];
+    for (int c = 0; c < 3; ++c)
+      if (cloud.points[a][c] != cloud.points[b][c]) return cloud.points[a][c] < cloud.points[b][c];
+    return false;
+  };
+  std::sort(order.begin(), order.end(), less);
+  return order;
+}
+
+struct Attributes {
+  int position = -1, normal = -1, intensity = -1;
+};
+
+// The point cloud as Draco will encode it; `atts` receives the attribute ids.
+std::unique_ptr<draco::PointCloud> build_point_cloud(const TileCloud& cloud, const std::vector<Eigen::Vector3f>& normals,
+                                                     const PositionQuantization& q, const std::vector<uint32_t>& order,
+                                                     Attributes& atts) {
+  const auto n = static_cast<draco::PointIndex::ValueType>(cloud.size());
+  draco::PointCloudBuilder builder;
+  builder.Start(n);
+  atts.position = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
+  if (!normals.empty()) atts.normal = builder.AddAttribute(draco::GeometryAttribute::NORMAL, 3, draco::DT_FLOAT32);
+  if (!cloud.intensity.empty())
+    atts.intensity = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 1, draco::DT_FLOAT32);
+
+  std::vector<float> xyz(3 * cloud.size());
+  for (std::size_t k = 0; k < order.size(); ++k)
+    for (int c = 0; c < 3; ++c)
+      xyz[3 * k + c] = static_cast<float>(cloud.points[order[k]][c] - q.origin[c]);
+  // (Draco's builder crashes when handed the values of no points.)
+  if (!order.empty()) builder.SetAttributeValuesForAllPoints(atts.position, xyz.data(), 0);
+  if (atts.normal >= 0) {
+    for (std::size_t k = 0; k < order.size(); ++k)
+      for (int c = 0; c < 3; ++c) xyz[3 * k + c] = normals[order[k]][c];
+    builder.SetAttributeValuesForAllPoints(atts.normal, xyz.data(), 0);
+  }
+  if (atts.intensity >= 0) {
+    std::vector<float> values(order.size());
+    for (std::size_t k = 0; k < order.size(); ++k) values[k] = cloud.intensity[order[k]];
+    builder.SetAttributeValuesForAllPoints(atts.intensity, values.data(), 0);
+  }
+  std::unique_ptr<draco::PointCloud> pc = builder.Finalize(false);
+  if (!pc) throw Error("tile codec: Draco could not build the point cloud");
+
+  auto metadata = std::make_unique<draco::GeometryMetadata>();
+  metadata->AddEntryDoubleArray(kOriginKey, {q.origin.x(), q.origin.y(), q.origin.z()});
+  pc->AddMetadata(std::move(metadata));
+  if (atts.intensity >= 0) {
+    auto att_metadata = std::make_unique<draco::AttributeMetadata>();
+    att_metadata->AddEntryString(kNameKey, kIntensityName);
+    pc->AddAttributeMetadata(atts.intensity, std::move(att_metadata));
+  }
+  return pc;
+}
+
+// --- decoding ---------------------------------------------------------------------------------------
+
+std::unique_ptr<draco::PointCloud> decode_point_cloud(std::string_view bytes) {
+  if (bytes.empty()) invalid("no bytes");
+  if (bytes.size() < 5 || std::memcmp(bytes.data(), "DRACO", 5) != 0) invalid("no DRACO header");
+  draco::DecoderBuffer buffer;
+  buffer.Init(bytes.data(), bytes.size());
+  draco::Decoder decoder;
+  auto result = decoder.DecodePointCloudFromBuffer(&buffer);
+  if (!result.ok()) invalid(result.status().error_msg_string());
+  std::unique_ptr<draco::PointCloud> pc = std::move(result).value();
+  if (!pc) invalid("the decoder returned nothing");
+  return pc;
+}
+
+// The attribute of that type with 3 components (positions and normals), or nullptr.
+const draco::PointAttribute* vector_attribute(const draco::PointCloud& pc, draco::GeometryAttribute::Type type) {
+  for (int i = 0; i < pc.NumNamedAttributes(type); ++i) {
+    const draco::PointAttribute* att = pc.GetNamedAttribute(type, i);
+    if (att && att->num_components() == 3) return att;
+  }
+  return nullptr;
+}
+
+// The GENERIC 1-component attribute named "intensity" in its metadata, or nullptr.
+const draco::PointAttribute* intensity_attribute(const draco::PointCloud& pc) {
+  for (int i = 0; i < pc.NumNamedAttributes(draco::GeometryAttribute::GENERIC); ++i) {
+    const int id = pc.GetNamedAttributeId(draco::GeometryAttribute::GENERIC, i);
+    const draco::PointAttribute* att = pc.attribute(id);
+    if (!att || att->num_components() != 1) continue;
+    const draco::AttributeMetadata* md = pc.GetAttributeMetadataByAttributeId(id);
+    std::string name;
+    if (md && md->GetEntryString(kNameKey, &name) && name == kIntensityName) return att;
+  }
+  return nullptr;
+}
+
+// Checks that every point maps to a stored value of the attribute.
+void check_mapping(const draco::PointAttribute& att, std::size_t n, const char* what) {
+  const std::size_t stored = att.size();
+  const int64_t stride = att.byte_stride();
+  const std::size_t value_bytes = static_cast<std::size_t>(att.num_components()) * draco::DataTypeLength(att.data_type());
+  if (!att.buffer() || stride <= 0 ||
+      (stored > 0 && static_cast<std::size_t>(att.byte_offset() + stride * static_cast<int64_t>(stored - 1)) +
+                             value_bytes > att.buffer()->data_size()))
+    invalid(std::string(what) + " attribute has no data");
+  if (att.is_mapping_identity()) {
+    if (stored < n) invalid(std::string(what) + " attribute has fewer values than points");
+    return;
+  }
+  if (att.indices_map_size() < n) invalid(std::string(what) + " attribute maps fewer points than the cloud has");
+  for (std::size_t i = 0; i < n; ++i)
+    if (att.mapped_index(draco::PointIndex(static_cast<uint32_t>(i))).value() >= stored)
+      invalid(std::string(what) + " attribute maps a point to a missing value");
+}
+
+// Reads 3 components of point i as doubles (float32 fast path, any other type through Draco).
+template <typename Out>
+bool read3(const draco::PointAttribute& att, uint32_t i, Out* out) {
+  const draco::AttributeValueIndex avi = att.mapped_index(draco::PointIndex(i));
+  if (att.data_type() == draco::DT_FLOAT32) {
+    float v[3];
+    std::memcpy(v, att.GetAddress(avi), sizeof(v));
+    for (int c = 0; c < 3; ++c) out[c] = static_cast<Out>(v[c]);
+    return true;
+  }
+  return att.ConvertValue<Out>(avi, 3, out);
+}
+
+Eigen::Vector3d tile_origin(const draco::PointCloud& pc) {
+  const draco::GeometryMetadata* md = pc.GetMetadata();
+  std::vector<double> origin;
+  if (!md || !md->GetEntryDoubleArray(kOriginKey, &origin)) return Eigen::Vector3d::Zero();
+  if (origin.size() != 3 || !std::isfinite(origin[0]) || !std::isfinite(origin[1]) || !std::isfinite(origin[2]))
+    invalid(std::string(kOriginKey) + " metadata is not 3 finite numbers");
+  return {origin[0], origin[1], origin[2]};
+}
+
+}  // namespace
+
+std::string encode_tile(const TileCloud& cloud, const TileCodecConfig& cfg) {
+  check_config(cfg);
+  check_cloud(cloud);
+
+  std::vector<Eigen::Vector3f> normals(cloud.normals.size());
+  for (std::size_t i = 0; i < normals.size(); ++i) {
+    const Eigen::Vector3d u = cloud.normals[i].cast<double>().normalized();
+    for (int c = 0; c < 3; ++c) normals[i][c] = static_cast<float>(u[c]) + 0.0f;  // no -0
+  }
+  const PositionQuantization q = quantize_positions(cloud.points, cfg.max_error_m);
+  const std::vector<uint32_t> order = canonical_order(cloud, normals, q);
+  Attributes atts;
+  const std::unique_ptr<draco::PointCloud> pc = build_point_cloud(cloud, normals, q, order, atts);
+
+  std::vector<int> methods = {draco::POINT_CLOUD_SEQUENTIAL_ENCODING};
+  if (cfg.speed < 10 && !cloud.points.empty()) methods.push_back(draco::POINT_CLOUD_KD_TREE_ENCODING);
+  std::string best, errors;
+  for (int method : methods) {
+    draco::ExpertEncoder encoder(*pc);
+    encoder.SetSpeedOptions(cfg.speed, cfg.speed);
+    encoder.SetEncodingMethod(method);
+    encoder.SetAttributeExplicitQuantization(atts.position, q.bits, 3, q.box_min, q.range);
+    if (atts.normal >= 0) encoder.SetAttributeQuantization(atts.normal, cfg.normal_bits);
+    if (atts.intensity >= 0) encoder.SetAttributeQuantization(atts.intensity, cfg.intensity_bits);
+    draco::EncoderBuffer buffer;
+    const draco::Status status = encoder.EncodeToBuffer(&buffer);
+    if (!status.ok()) {
+      errors += (errors.empty() ? "" : "; ") + status.error_msg_string();
+      continue;
+    }
+    if (best.empty() || buffer.size() < best.size()) best.assign(buffer.data(), buffer.size());
+  }
+  if (best.empty()) throw Error("tile codec: Draco could not encode the tile: " + errors);
+  return best;
+}
+
+TileCloud decode_tile(std::string_view bytes) {
+  const std::unique_ptr<draco::PointCloud> pc = decode_point_cloud(bytes);
+  const draco::PointAttribute* pos = vector_attribute(*pc, draco::GeometryAttribute::POSITION);
+  if (!pos) invalid("no 3-component POSITION attribute");
+  const draco::PointAttribute* nrm = vector_attribute(*pc, draco::GeometryAttribute::NORMAL);
+  const draco::PointAttribute* inten = intensity_attribute(*pc);
+  const std::size_t n = pc->num_points();
+  check_mapping(*pos, n, "POSITION");
+  if (nrm) check_mapping(*nrm, n, "NORMAL");
+  if (inten) check_mapping(*inten, n, "intensity");
+  const Eigen::Vector3d origin = tile_origin(*pc);
+
+  TileCloud cloud;
+  cloud.points.resize(n);
+  for (uint32_t i = 0; i < n; ++i) {
+    double v[3];
+    if (!read3(*pos, i, v)) invalid("POSITION value " + std::to_string(i) + " cannot be read");
+    Eigen::Vector3d& p = cloud.points[i];
+    p = origin + Eigen::Vector3d(v[0], v[1], v[2]);
+    if (!p.allFinite()) invalid("position " + std::to_string(i) + " is not finite");
+  }
+  if (nrm) {
+    cloud.normals.resize(n);
+    for (uint32_t i = 0; i < n; ++i) {
+      float v[3];
+      if (!read3(*nrm, i, v)) invalid("NORMAL value " + std::to_string(i) + " cannot be read");
+      Eigen::Vector3f& u = cloud.normals[i];
+      u = Eigen::Vector3f(v[0], v[1], v[2]);
+      if (!u.allFinite()) invalid("normal " + std::to_string(i) + " is not finite");
+      const float norm = u.norm();
+      if (norm > 0) u /= norm;  // the k-d tree coder quantizes components, leaving them off unit length
+    }
+  }
+  if (inten) {
+    cloud.intensity.resize(n);
+    for (uint32_t i = 0; i < n; ++i) {
+      float v = 0;
+      if (!inten->ConvertValue<float>(inten->mapped_index(draco::PointIndex(i)), 1, &v))
+        invalid("intensity value " + std::to_string(i) + " cannot be read");
+      if (!std::isfinite(v)) invalid("intensity " + std::to_string(i) + " is not finite");
+      cloud.intensity[i] = v;
+    }
+  }
+  return cloud;
+}
+
+TileSummary inspect_tile(std::string_view bytes) {
+  // Draco has no header-only reader for the point count: decode (which also validates the whole
+  // stream, what an upload check wants) and summarise without converting anything.
+  const std::unique_ptr<draco::PointCloud> pc = decode_point_cloud(bytes);
+  const draco::PointAttribute* pos = vector_attribute(*pc, draco::GeometryAttribute::POSITION);
+  if (!pos) invalid("no 3-component POSITION attribute");
+  const std::size_t n = pc->num_points();
+  check_mapping(*pos, n, "POSITION");
+  const draco::PointAttribute* nrm = vector_attribute(*pc, draco::GeometryAttribute::NORMAL);
+  const draco::PointAttribute* inten = intensity_attribute(*pc);
+  if (nrm) check_mapping(*nrm, n, "NORMAL");
+  if (inten) check_mapping(*inten, n, "intensity");
+  tile_origin(*pc);  // throws on a malformed origin, as decode_tile would
+  TileSummary s;
+  s.points = n;
+  s.has_normals = nrm != nullptr;
+  s.has_intensity = inten != nullptr;
+  return s;
+}
+
+}  // namespace pl

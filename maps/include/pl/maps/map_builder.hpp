@@ -1,0 +1,66 @@
+// Maps from drives with known poses: scans merged in the world frame into a voxel grid (exact
+// centroids per voxel), a normal per point, and the cut into tiles.
+#pragma once
+
+#include <map>
+#include <unordered_map>
+#include <vector>
+
+#include "pl/common/dataset.hpp"
+#include "pl/common/tile_codec.hpp"
+#include "pl/common/tile_key.hpp"
+#include "pl/common/voxel.hpp"
+
+namespace pl::maps {
+
+// Accumulates points into voxels (sums in double, first-seen order) so that a map of thousands of
+// scans is one centroid per voxel over all of them, not a centroid of centroids.
+class VoxelAccumulator {
+ public:
+  explicit VoxelAccumulator(double voxel);
+  void add(const Eigen::Vector3d& p, float intensity);
+  std::size_t size() const { return sums_.size(); }
+  Points3d centroids(std::vector<float>& intensity) const;
+
+ private:
+  struct Key {
+    std::int64_t x, y, z;
+    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
+  };
+  struct KeyHash {
+    std::size_t operator()(const Key& k) const;
+  };
+  struct Sum {
+    double x, y, z, i;
+    std::uint32_t n;
+  };
+  double inv_;
+  std::unordered_map<Key, std::uint32_t, KeyHash> index_;
+  std::vector<Sum> sums_;
+};
+
+struct MapBuildConfig {
+  double voxel_m = 0.2;
+  ScanPrepConfig scan;  // crops applied to every scan before merging (all beams by default)
+  std::size_t first = 0, last = SIZE_MAX, every = 1;  // which scans
+};
+
+struct MapCloud {
+  Points3d points;               // world frame of the dataset
+  std::vector<float> intensity;  // one per point
+};
+
+// Merges the dataset's scans placed by `poses` (one per scan). `progress(done, total)` may be null.
+MapCloud build_map_from_poses(const Dataset& ds, const Trajectory& poses, const MapBuildConfig& cfg,
+                              void (*progress)(std::size_t, std::size_t) = nullptr);
+
+// The normal of each point: the direction of least spread of its neighbours within `radius` (at least
+// 5 of them; otherwise straight up). Oriented deterministically: up when it is not near horizontal,
+// else towards +x or +y. Optionally the planarity (1 - smallest/middle eigenvalue) of each.
+std::vector<Eigen::Vector3f> estimate_normals(const Points3d& points, double radius, std::vector<float>* planarity = nullptr);
+
+// The points of each tile (half-open tile boxes), ordered by key.
+std::map<TileKey, TileCloud> cut_into_tiles(const Points3d& points, const std::vector<Eigen::Vector3f>& normals,
+                                            const std::vector<float>& intensity, const TileGrid& grid);
+
+}  // namespace pl::maps

@@ -1,0 +1,296 @@
+// pl-map: build maps from drives, cut them into Draco tiles in a versioned SQLite store, publish.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <set>
+
+#include "pl/common/cli.hpp"
+#include "pl/common/cloud_io.hpp"
+#include "pl/common/error.hpp"
+#include "pl/common/progress.hpp"
+#include "pl/common/text.hpp"
+#include "pl/maps/map_builder.hpp"
+#include "pl/schema/store.hpp"
+
+namespace {
+
+const char* kUsage =
+    "usage: pl-map COMMAND [options]\n"
+    "\n"
+    "  build    --dataset DIR --poses gt --out map.pcd [--voxel 0.2] [--every N] [--max-range 80]\n"
+    "           merge a drive's scans at their ground-truth poses into a voxelized map (PCD in the\n"
+    "           dataset's world frame, its geodetic origin recorded in the header)\n"
+    "  tile     --cloud FILE(.pcd|.ply|.bin) --db maps.sqlite --map NAME [--origin LAT,LON,ALT]\n"
+    "           [--voxel 0.2] [--tile-size 20] [--normal-radius 0.6] [--max-error 0.005] [--note TEXT]\n"
+    "           voxelize, estimate normals, cut into tiles, Draco-encode them and write a new staged\n"
+    "           version (the map is created on first use; unchanged tiles share their stored bytes)\n"
+    "  publish  --db FILE --map NAME --version N      make a staged version current (one transaction)\n"
+    "  rollback --db FILE --map NAME                  make the previously published version current again\n"
+    "  list     --db FILE [--map NAME]                maps, or the versions of one map\n"
+    "  info     --db FILE --map NAME [--version N]    a map's manifest (default: the current version)\n"
+    "  diff     --db FILE --map NAME --from A --to B  tiles added, removed and changed between versions\n";
+
+std::vector<double> parse_list(const std::string& text, std::size_t n, const std::string& flag) {
+  std::vector<double> v;
+  for (auto f : pl::split_fields(text, ",")) {
+    double d;
+    if (!pl::parse_double(f, d)) break;
+    v.push_back(d);
+  }
+  if (v.size() != n) throw pl::Error(flag + " takes " + std::to_string(n) + " comma-separated numbers, got \"" + text + "\"");
+  return v;
+}
+
+std::string mb(double bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.2f MB", bytes / 1e6);
+  return buf;
+}
+
+void progress_cb(std::size_t done, std::size_t total) {
+  static pl::Progress* bar = nullptr;
+  if (!bar) bar = new pl::Progress("merging scans", total);
+  bar->update(done);
+  if (done == total) {
+    bar->finish();
+    delete bar;
+    bar = nullptr;
+  }
+}
+
+int cmd_build(const pl::Args& a) {
+  std::string dir = a.require("--dataset", "DIR (the drive to build the map from)");
+  std::string poses = a.get_or("--poses", "gt");
+  std::string out = a.require("--out", "FILE.pcd (where to write the map)");
+  pl::maps::MapBuildConfig cfg;
+  cfg.voxel_m = a.get_double("--voxel", cfg.voxel_m);
+  cfg.every = static_cast<std::size_t>(std::max<long long>(1, a.get_int("--every", 1)));
+  cfg.scan.min_range_m = a.get_double("--min-range", 2.0);
+  cfg.scan.max_range_m = a.get_double("--max-range", 80.0);
+  a.finish();
+  if (poses != "gt") throw pl::Error("--poses takes gt (the G-LOAM builder with lidar poses comes later)");
+  pl::Dataset ds = pl::open_dataset(dir);
+  if (!ds.has_ground_truth()) throw pl::Error(ds.dir + ": --poses gt needs ground-truth poses (poses.txt or OXTS)");
+  pl::maps::MapCloud map = pl::maps::build_map_from_poses(ds, ds.ground_truth, cfg, progress_cb);
+  pl::write_pcd(out, map.points, map.intensity, ds.meta.origin);
+  std::printf("wrote %s: %zu points from %zu scans at %.2f m voxels\n", out.c_str(), map.points.size(),
+              (ds.size() + cfg.every - 1) / cfg.every, cfg.voxel_m);
+  return 0;
+}
+
+int cmd_tile(const pl::Args& a) {
+  std::string cloud_path = a.require("--cloud", "FILE (.pcd, .ply or .bin, in the map's local ENU frame)");
+  std::string db = a.require("--db", "FILE (the SQLite map store; created when missing)");
+  std::string name = a.require("--map", "NAME");
+  auto origin_flag = a.get("--origin");
+  double voxel = a.get_double("--voxel", 0.2), tile_size = a.get_double("--tile-size", 20.0);
+  double radius = a.get_double("--normal-radius", 3.0 * voxel);
+  pl::TileCodecConfig codec;
+  codec.max_error_m = a.get_double("--max-error", codec.max_error_m);
+  std::string note = a.get_or("--note", "tiled from " + cloud_path);
+  a.finish();
+  if (!(voxel > 0) || !(tile_size >= 1.0)) throw pl::Error("--voxel must be positive and --tile-size at least 1 m");
+  if (!(codec.max_error_m > 0 && codec.max_error_m <= 0.1)) throw pl::Error("--max-error takes metres in (0, 0.1]");
+
+  pl::Cloud cloud = pl::read_cloud(cloud_path);
+  if (origin_flag) {
+    auto v = parse_list(*origin_flag, 3, "--origin");
+    cloud.origin = pl::GeoPoint{v[0], v[1], v[2]};
+  }
+  pl::store::Store store = pl::store::Store::open(db);
+  auto existing = store.find_map(name);
+  if (!cloud.origin && !existing)
+    throw pl::Error(cloud_path + ": no origin recorded: give --origin LAT,LON,ALT (the geodetic origin of the cloud's ENU frame)");
+  if (existing) {
+    if (std::abs(existing->tile_size - tile_size) > 1e-9 || std::abs(existing->voxel_size - voxel) > 1e-9)
+      throw pl::Error("map " + name + " has " + std::to_string(existing->tile_size) + " m tiles and " +
+                      std::to_string(existing->voxel_size) + " m voxels: use --tile-size " + std::to_string(existing->tile_size) +
+                      " --voxel " + std::to_string(existing->voxel_size) + ", or another --map");
+    if (cloud.origin && (std::abs(cloud.origin->lat_deg - existing->origin.lat_deg) > 1e-9 ||
+                         std::abs(cloud.origin->lon_deg - existing->origin.lon_deg) > 1e-9))
+      throw pl::Error(cloud_path + ": its origin differs from map " + name + "'s: the cloud is in another frame (use another --map)");
+  }
+  if (cloud.points.empty()) throw pl::Error(cloud_path + ": no points");
+
+  std::vector<float> intensity;
+  pl::Points3d pts = pl::voxel_downsample(cloud.points, cloud.intensity, voxel, intensity);
+  auto normals = pl::maps::estimate_normals(pts, radius);
+  pl::TileGrid grid(tile_size);
+  auto tiles = pl::maps::cut_into_tiles(pts, normals, intensity, grid);
+
+  // Everything in one transaction: an interrupted import leaves no version behind.
+  pl::store::Store::Transaction tx(store);
+  if (!existing) store.create_map(name, *cloud.origin, tile_size, voxel);
+  pl::store::VersionInfo v = store.create_version(name, std::nullopt, note);
+  std::map<pl::TileKey, std::string> parent_hash;  // the new version starts as a copy of its parent
+  for (const auto& t : store.list_tiles(name, v.number)) parent_hash[t.key] = t.hash;
+  std::size_t changed = 0, unchanged = 0, removed = 0;
+  double bytes = 0;
+  pl::Progress bar("encoding tiles", tiles.size());
+  std::size_t done = 0;
+  for (const auto& [key, tile] : tiles) {
+    std::string enc = pl::encode_tile(tile, codec);
+    Eigen::Vector3d lo = tile.points.front(), hi = lo;
+    for (const auto& p : tile.points) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    auto rec = store.put_tile(name, v.number, key, enc, static_cast<std::int64_t>(tile.size()), lo.x(), lo.y(), lo.z(), hi.x(),
+                              hi.y(), hi.z());
+    auto it = parent_hash.find(key);
+    if (it != parent_hash.end() && it->second == rec.hash)
+      ++unchanged;
+    else
+      ++changed;
+    bytes += static_cast<double>(enc.size());
+    bar.update(++done);
+  }
+  bar.finish();
+  for (const auto& [key, hash] : parent_hash)
+    if (!tiles.count(key)) removed += store.delete_tile(name, v.number, key);
+  store.log_upload(name, v.number, "tile", note, "pl-map");
+  tx.commit();
+  std::printf("map %s version %lld staged: %zu tiles (%zu new or changed, %zu unchanged, %zu removed), %zu points, %s\n",
+              name.c_str(), static_cast<long long>(v.number), tiles.size(), changed, unchanged, removed, pts.size(),
+              mb(bytes).c_str());
+  std::printf("publish it with: pl-map publish --db %s --map %s --version %lld\n", db.c_str(), name.c_str(),
+              static_cast<long long>(v.number));
+  return 0;
+}
+
+pl::store::MapInfo need_map(const pl::store::Store& s, const std::string& name) {
+  auto m = s.find_map(name);
+  if (!m) throw pl::Error(s.path() + ": no map named \"" + name + "\" (pl-map list --db " + s.path() + " shows the maps)");
+  return *m;
+}
+
+void print_version(const pl::store::VersionInfo& v, bool current) {
+  std::printf("  %s v%-4lld %-9s %6lld tiles %10lld points %10s  %s%s%s\n", current ? "*" : " ", static_cast<long long>(v.number),
+              pl::store::state_name(v.state), static_cast<long long>(v.tiles), static_cast<long long>(v.points),
+              mb(static_cast<double>(v.bytes)).c_str(), v.created.c_str(), v.note.empty() ? "" : "  ", v.note.c_str());
+}
+
+int cmd_publish(const pl::Args& a) {
+  std::string db = a.require("--db", "FILE"), name = a.require("--map", "NAME");
+  long long version = a.get_int("--version", -1);
+  a.finish();
+  if (version < 1) throw pl::Error("missing --version N (the staged version to publish)");
+  auto store = pl::store::Store::open(db, false);
+  need_map(store, name);
+  store.publish(name, version);
+  store.log_upload(name, version, "publish", "", "pl-map");
+  std::printf("map %s: version %lld is current\n", name.c_str(), version);
+  return 0;
+}
+
+int cmd_rollback(const pl::Args& a) {
+  std::string db = a.require("--db", "FILE"), name = a.require("--map", "NAME");
+  a.finish();
+  auto store = pl::store::Store::open(db, false);
+  need_map(store, name);
+  auto v = store.rollback(name);
+  store.log_upload(name, v, "rollback", "", "pl-map");
+  std::printf("map %s: rolled back, version %lld is current\n", name.c_str(), static_cast<long long>(v));
+  return 0;
+}
+
+int cmd_list(const pl::Args& a) {
+  std::string db = a.require("--db", "FILE");
+  auto name = a.get("--map");
+  a.finish();
+  auto store = pl::store::Store::open(db, false);
+  if (name) {
+    auto m = need_map(store, *name);
+    std::printf("map %s (tile %.1f m, voxel %.2f m)\n", m.name.c_str(), m.tile_size, m.voxel_size);
+    for (const auto& v : store.list_versions(*name)) print_version(v, m.current && *m.current == v.number);
+    return 0;
+  }
+  auto maps = store.list_maps();
+  if (maps.empty()) std::printf("no maps in %s\n", db.c_str());
+  for (const auto& m : maps)
+    std::printf("%-24s current %s, tile %.1f m, voxel %.2f m, origin %.7f %.7f %.2f\n", m.name.c_str(),
+                m.current ? ("v" + std::to_string(*m.current)).c_str() : "none", m.tile_size, m.voxel_size, m.origin.lat_deg,
+                m.origin.lon_deg, m.origin.alt_m);
+  return 0;
+}
+
+int cmd_info(const pl::Args& a) {
+  std::string db = a.require("--db", "FILE"), name = a.require("--map", "NAME");
+  long long version = a.get_int("--version", 0);
+  a.finish();
+  auto store = pl::store::Store::open(db, false);
+  auto m = need_map(store, name);
+  if (version == 0) {
+    if (!m.current) throw pl::Error("map " + name + " has no published version yet: give --version N");
+    version = *m.current;
+  }
+  auto v = store.find_version(name, version);
+  if (!v) throw pl::Error("map " + name + " has no version " + std::to_string(version));
+  auto tiles = store.list_tiles(name, version);
+  double lo_x = INFINITY, lo_y = INFINITY, hi_x = -INFINITY, hi_y = -INFINITY;
+  for (const auto& t : tiles) lo_x = std::min(lo_x, t.min_x), lo_y = std::min(lo_y, t.min_y), hi_x = std::max(hi_x, t.max_x), hi_y = std::max(hi_y, t.max_y);
+  double area_km2 = static_cast<double>(tiles.size()) * m.tile_size * m.tile_size / 1e6;
+  std::printf("map          %s\n", m.name.c_str());
+  std::printf("version      %lld (%s)%s, created %s\n", version, pl::store::state_name(v->state),
+              m.current && *m.current == version ? ", current" : "", v->created.c_str());
+  std::printf("origin       lat %.9f, lon %.9f, alt %.3f m\n", m.origin.lat_deg, m.origin.lon_deg, m.origin.alt_m);
+  std::printf("grid         %.1f m tiles, %.2f m voxels\n", m.tile_size, m.voxel_size);
+  std::printf("tiles        %zu covering %.4f km2, %lld points, %s (%.1f MB per km2 of tiles)\n", tiles.size(), area_km2,
+              static_cast<long long>(v->points), mb(static_cast<double>(v->bytes)).c_str(),
+              area_km2 > 0 ? static_cast<double>(v->bytes) / 1e6 / area_km2 : 0.0);
+  if (!tiles.empty()) std::printf("bounds       x %.1f .. %.1f, y %.1f .. %.1f m\n", lo_x, hi_x, lo_y, hi_y);
+  return 0;
+}
+
+int cmd_diff(const pl::Args& a) {
+  std::string db = a.require("--db", "FILE"), name = a.require("--map", "NAME");
+  long long from = a.get_int("--from", -1), to = a.get_int("--to", -1);
+  a.finish();
+  if (from < 1 || to < 1) throw pl::Error("diff needs --from A --to B (version numbers)");
+  auto store = pl::store::Store::open(db, false);
+  need_map(store, name);
+  for (long long v : {from, to})
+    if (!store.find_version(name, v)) throw pl::Error("map " + name + " has no version " + std::to_string(v));
+  std::map<pl::TileKey, std::string> a_tiles, b_tiles;
+  for (const auto& t : store.list_tiles(name, from)) a_tiles[t.key] = t.hash;
+  for (const auto& t : store.list_tiles(name, to)) b_tiles[t.key] = t.hash;
+  std::size_t added = 0, removed = 0, changed = 0, same = 0;
+  for (const auto& [k, h] : b_tiles) {
+    auto it = a_tiles.find(k);
+    if (it == a_tiles.end()) {
+      ++added;
+      std::printf("+ %d %d\n", k.tx, k.ty);
+    } else if (it->second != h) {
+      ++changed;
+      std::printf("~ %d %d\n", k.tx, k.ty);
+    } else {
+      ++same;
+    }
+  }
+  for (const auto& [k, h] : a_tiles)
+    if (!b_tiles.count(k)) {
+      ++removed;
+      std::printf("- %d %d\n", k.tx, k.ty);
+    }
+  std::printf("v%lld -> v%lld: %zu added, %zu removed, %zu changed, %zu unchanged\n", from, to, added, removed, changed, same);
+  return 0;
+}
+
+int body(int argc, char** argv) {
+  if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
+    std::fputs(kUsage, argc < 2 ? stderr : stdout);
+    return argc < 2 ? 2 : 0;
+  }
+  std::string cmd = argv[1];
+  pl::Args args(argc, argv, 2);
+  if (!args.positional().empty()) throw pl::Error("unexpected argument \"" + args.positional()[0] + "\" (see pl-map --help)");
+  if (cmd == "build") return cmd_build(args);
+  if (cmd == "tile") return cmd_tile(args);
+  if (cmd == "publish") return cmd_publish(args);
+  if (cmd == "rollback") return cmd_rollback(args);
+  if (cmd == "list") return cmd_list(args);
+  if (cmd == "info") return cmd_info(args);
+  if (cmd == "diff") return cmd_diff(args);
+  throw pl::Error("unknown command \"" + cmd + "\" (build, tile, publish, rollback, list, info or diff; see --help)");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) { return pl::run_cli("pl-map", body, argc, argv); }

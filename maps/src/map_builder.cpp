@@ -1,0 +1,146 @@
+#include "pl/maps/map_builder.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <array>
+#include <cmath>
+
+#include "pl/common/error.hpp"
+
+namespace pl::maps {
+
+VoxelAccumulator::VoxelAccumulator(double voxel) : inv_(1.0 / voxel) {
+  if (!(voxel > 0.0)) throw Error("voxel size must be a positive number of metres");
+}
+
+std::size_t VoxelAccumulator::KeyHash::operator()(const Key& k) const {
+  std::uint64_t h = static_cast<std::uint64_t>(k.x) * 0x9E3779B97F4A7C15ull;
+  h ^= static_cast<std::uint64_t>(k.y) * 0xC2B2AE3D27D4EB4Full + (h << 6) + (h >> 2);
+  h ^= static_cast<std::uint64_t>(k.z) * 0x165667B19E3779F9ull + (h << 6) + (h >> 2);
+  return static_cast<std::size_t>(h);
+}
+
+void VoxelAccumulator::add(const Eigen::Vector3d& p, float intensity) {
+  Key k{static_cast<std::int64_t>(std::floor(p.x() * inv_)), static_cast<std::int64_t>(std::floor(p.y() * inv_)),
+        static_cast<std::int64_t>(std::floor(p.z() * inv_))};
+  auto [it, fresh] = index_.try_emplace(k, static_cast<std::uint32_t>(sums_.size()));
+  if (fresh) {
+    sums_.push_back({p.x(), p.y(), p.z(), intensity, 1});
+  } else {
+    Sum& s = sums_[it->second];
+    s.x += p.x(), s.y += p.y(), s.z += p.z(), s.i += intensity, ++s.n;
+  }
+}
+
+Points3d VoxelAccumulator::centroids(std::vector<float>& intensity) const {
+  Points3d out(sums_.size());
+  intensity.resize(sums_.size());
+  for (std::size_t i = 0; i < sums_.size(); ++i) {
+    double k = 1.0 / sums_[i].n;
+    out[i] = Eigen::Vector3d(sums_[i].x * k, sums_[i].y * k, sums_[i].z * k);
+    intensity[i] = static_cast<float>(sums_[i].i * k);
+  }
+  return out;
+}
+
+MapCloud build_map_from_poses(const Dataset& ds, const Trajectory& poses, const MapBuildConfig& cfg,
+                              void (*progress)(std::size_t, std::size_t)) {
+  if (poses.size() != ds.size())
+    throw Error("the map needs one pose per scan: " + std::to_string(poses.size()) + " poses for " + std::to_string(ds.size()) + " scans");
+  if (cfg.every == 0) throw Error("every must be at least 1");
+  VoxelAccumulator acc(cfg.voxel_m);
+  ScanPrepConfig prep = cfg.scan;
+  prep.sensor_beams = ds.meta.sensor.beams;
+  prep.voxel_m = 0.0;  // the accumulator voxelizes, exactly, in the world frame
+  std::size_t last = std::min(cfg.last, ds.size() == 0 ? 0 : ds.size() - 1);
+  std::size_t total = last >= cfg.first ? (last - cfg.first) / cfg.every + 1 : 0, done = 0;
+  for (std::size_t i = cfg.first; i <= last && i < ds.size(); i += cfg.every) {
+    Scan scan = ds.load_scan(i);
+    std::vector<std::uint16_t> rings;
+    if (prep.beams > 0 && prep.beams < prep.sensor_beams) rings = ds.rings(scan);
+    Scan kept = prepare_scan(scan, rings, prep);
+    const Pose& pose = poses.poses[i];
+    for (const auto& p : kept) acc.add(pose * Eigen::Vector3d(p.x, p.y, p.z), p.intensity);
+    if (progress) progress(++done, total);
+  }
+  MapCloud out;
+  out.points = acc.centroids(out.intensity);
+  return out;
+}
+
+namespace {
+
+struct CellHash {
+  std::size_t operator()(const std::array<std::int64_t, 3>& k) const {
+    std::uint64_t h = static_cast<std::uint64_t>(k[0]) * 0x9E3779B97F4A7C15ull;
+    h ^= static_cast<std::uint64_t>(k[1]) * 0xC2B2AE3D27D4EB4Full + (h << 6) + (h >> 2);
+    h ^= static_cast<std::uint64_t>(k[2]) * 0x165667B19E3779F9ull + (h << 6) + (h >> 2);
+    return static_cast<std::size_t>(h);
+  }
+};
+
+}  // namespace
+
+std::vector<Eigen::Vector3f> estimate_normals(const Points3d& points, double radius, std::vector<float>* planarity) {
+  if (!(radius > 0.0)) throw Error("the normal radius must be positive");
+  const double inv = 1.0 / radius, r2 = radius * radius;
+  auto cell = [inv](const Eigen::Vector3d& p) {
+    return std::array<std::int64_t, 3>{static_cast<std::int64_t>(std::floor(p.x() * inv)), static_cast<std::int64_t>(std::floor(p.y() * inv)),
+                                       static_cast<std::int64_t>(std::floor(p.z() * inv))};
+  };
+  // Points grouped by cell: cell -> [begin, end) into `order`.
+  std::unordered_map<std::array<std::int64_t, 3>, std::vector<std::uint32_t>, CellHash> cells;
+  cells.reserve(points.size() / 4 + 1);
+  for (std::uint32_t i = 0; i < points.size(); ++i) cells[cell(points[i])].push_back(i);
+  std::vector<Eigen::Vector3f> normals(points.size(), Eigen::Vector3f::UnitZ());
+  if (planarity) planarity->assign(points.size(), 0.0f);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d& p = points[i];
+    auto c = cell(p);
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
+    int n = 0;
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          auto it = cells.find({c[0] + dx, c[1] + dy, c[2] + dz});
+          if (it == cells.end()) continue;
+          for (std::uint32_t j : it->second) {
+            Eigen::Vector3d d = points[j] - p;  // relative to the point: no precision lost far from the origin
+            if (d.squaredNorm() > r2) continue;
+            sum += d;
+            outer += d * d.transpose();
+            ++n;
+          }
+        }
+    if (n < 5) continue;
+    Eigen::Vector3d mean = sum / n;
+    Eigen::Matrix3d cov = outer / n - mean * mean.transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+    es.computeDirect(cov);
+    Eigen::Vector3d nrm = es.eigenvectors().col(0);
+    double s = std::abs(nrm.z()) > 0.1 ? nrm.z() : (std::abs(nrm.x()) >= std::abs(nrm.y()) ? nrm.x() : nrm.y());
+    if (s < 0) nrm = -nrm;
+    normals[i] = nrm.normalized().cast<float>();
+    if (planarity) {
+      double l1 = es.eigenvalues()(1);
+      (*planarity)[i] = l1 > 0 ? static_cast<float>(1.0 - es.eigenvalues()(0) / l1) : 0.0f;
+    }
+  }
+  return normals;
+}
+
+std::map<TileKey, TileCloud> cut_into_tiles(const Points3d& points, const std::vector<Eigen::Vector3f>& normals,
+                                            const std::vector<float>& intensity, const TileGrid& grid) {
+  if (!normals.empty() && normals.size() != points.size()) throw Error("cut_into_tiles: one normal per point expected");
+  if (!intensity.empty() && intensity.size() != points.size()) throw Error("cut_into_tiles: one intensity per point expected");
+  std::map<TileKey, TileCloud> tiles;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    TileCloud& t = tiles[grid.key_of(points[i].x(), points[i].y())];
+    t.points.push_back(points[i]);
+    if (!normals.empty()) t.normals.push_back(normals[i]);
+    if (!intensity.empty()) t.intensity.push_back(intensity[i]);
+  }
+  return tiles;
+}
+
+}  // namespace pl::maps

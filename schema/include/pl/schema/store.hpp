@@ -1,0 +1,174 @@
+// The map store: versioned maps of Draco tiles in one SQLite file (schema/*.sql, migrated by
+// PRAGMA user_version). WAL mode, foreign keys on. A Store is one connection: open one per thread.
+//
+// Semantics (the schema is in schema/001_initial.sql):
+// - Every error (SQLite's included) is a pl::Error whose message starts with the database path.
+// - Several connections (threads or processes) may use one file: WAL lets readers run next to one
+//   writer; writers take the write lock up front (BEGIN IMMEDIATE) and wait up to 5 s for it.
+// - Unknown maps: the reading calls (find_*, list_*, tiles_in_box, upload_log) return nothing
+//   (std::nullopt or an empty list); the writing calls (create_version, publish, rollback,
+//   put_tile, delete_tile) throw pl::Error "PATH: unknown map NAME". An unknown version of a known
+//   map is handled the same way. log_upload accepts any map name (attempts on unknown maps are
+//   worth logging).
+// - Version numbers are 1, 2, ... per map. A version is staged, then published (it becomes the
+//   map's current version; the previously current one is retired), and may later be retired by a
+//   newer publish or a rollback, and published again by a rollback. Only staged versions accept
+//   tile writes. Readers use MapInfo::current; staged tiles are only seen by asking for that
+//   version number explicitly.
+// - Timestamps are UTC ISO 8601 with milliseconds and 'Z' ("2024-05-01T10:11:12.345Z").
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "pl/common/geo.hpp"
+#include "pl/common/tile_key.hpp"
+
+namespace pl::store {
+
+enum class VersionState { Staged, Published, Retired };
+const char* state_name(VersionState s);
+
+enum class Role { Read = 1, Upload = 2, Admin = 3 };  // each includes the ones below it
+const char* role_name(Role r);
+std::optional<Role> parse_role(std::string_view name);
+
+struct MapInfo {
+  std::int64_t id = 0;
+  std::string name;
+  GeoPoint origin;         // of the map's local ENU frame
+  double tile_size = 20.0;  // metres
+  double voxel_size = 0.2;  // metres
+  std::optional<std::int64_t> current;  // the published version readers see
+  std::string created;                  // UTC, ISO 8601
+};
+
+struct VersionInfo {
+  std::int64_t number = 0;  // 1, 2, ... per map
+  std::optional<std::int64_t> parent;
+  VersionState state = VersionState::Staged;
+  std::string created;  // UTC, ISO 8601
+  std::string note;
+  std::int64_t tiles = 0, points = 0, bytes = 0;  // totals over the version's tiles
+};
+
+struct TileRecord {
+  TileKey key;
+  std::string hash;  // content hash of the Draco bytes (SHA-256, lowercase hex)
+  std::int64_t points = 0;
+  std::int64_t bytes = 0;
+  double min_x = 0, min_y = 0, min_z = 0, max_x = 0, max_y = 0, max_z = 0;  // the points' box, ENU metres
+};
+
+// SHA-256 of bytes, lowercase hex.
+std::string content_hash(std::string_view bytes);
+
+class Store {
+ public:
+  // Opens (creating when `create`) and migrates the database. Throws pl::Error naming the file and
+  // the problem (not a database, newer schema than this build knows, read-only, ...).
+  // Without `create` a missing file is an error. Migrations run in one transaction each.
+  static Store open(const std::string& path, bool create = true);
+  // The newest schema version (PRAGMA user_version) this build can migrate to.
+  static int latest_schema_version();
+  Store(Store&&) noexcept;
+  Store& operator=(Store&&) noexcept;
+  Store(const Store&) = delete;
+  Store& operator=(const Store&) = delete;
+  ~Store();
+
+  int schema_version() const;
+  const std::string& path() const { return path_; }
+
+  // Maps. create_map throws pl::Error when the name is taken or invalid ([A-Za-z0-9_.-]{1,64}), the
+  // origin is not a valid latitude/longitude, or a size is not a positive number. find_map returns
+  // nothing for an unknown (or invalid) name; list_maps is ordered by name.
+  MapInfo create_map(const std::string& name, const GeoPoint& origin, double tile_size, double voxel_size);
+  std::optional<MapInfo> find_map(const std::string& name) const;
+  std::vector<MapInfo> list_maps() const;
+
+  // Versions. A new version is staged, starts as a copy of its parent's tiles (the current version
+  // when `parent` is empty; none for the first), and is invisible to readers until published.
+  // The copy is of the tile rows only: blobs are shared by content hash. The parent may be in any
+  // state; an explicit parent that does not exist is an error. list_versions is ordered by number.
+  VersionInfo create_version(const std::string& map, std::optional<std::int64_t> parent, const std::string& note);
+  std::optional<VersionInfo> find_version(const std::string& map, std::int64_t number) const;
+  std::vector<VersionInfo> list_versions(const std::string& map) const;
+  // Makes a staged version current in one transaction; the previously current one becomes retired.
+  // Throws pl::Error, naming the version and its state, unless the version is staged.
+  void publish(const std::string& map, std::int64_t number);
+  // Makes the previously published version current again (the current one is retired); returns it.
+  // "Previously published" is the version that was current when the current one was published, so
+  // repeated rollbacks walk back through the publish history (a rolled-back version is never made
+  // current again by a rollback). Throws pl::Error when the map has no current version or the
+  // current one was its first publish.
+  std::int64_t rollback(const std::string& map);
+
+  // Tiles of a staged version (throws pl::Error for a published or retired one). put_tile stores the
+  // blob once per content hash and is idempotent; the record's hash/bytes are computed here.
+  // put_tile replaces the key's record (same row, same id) and requires non-empty bytes, points >= 0
+  // and finite bounds with min <= max. A blob that no tile uses any more after put_tile or
+  // delete_tile is deleted. delete_tile returns false when the version has no such tile.
+  // list_tiles and tiles_in_box are ordered by (tx, ty).
+  TileRecord put_tile(const std::string& map, std::int64_t version, const TileKey& key, std::string_view draco_bytes,
+                      std::int64_t points, double min_x, double min_y, double min_z, double max_x, double max_y,
+                      double max_z);
+  bool delete_tile(const std::string& map, std::int64_t version, const TileKey& key);
+  std::optional<TileRecord> find_tile(const std::string& map, std::int64_t version, const TileKey& key) const;
+  std::vector<TileRecord> list_tiles(const std::string& map, std::int64_t version) const;
+  // Tiles whose box intersects the rectangle, through the R*Tree over tile bounds. Boxes are closed:
+  // touching edges intersect. An inverted (min > max) or NaN rectangle matches nothing.
+  std::vector<TileRecord> tiles_in_box(const std::string& map, std::int64_t version, double min_x, double min_y,
+                                       double max_x, double max_y) const;
+  std::optional<std::string> blob(const std::string& hash) const;
+  bool has_blob(const std::string& hash) const;
+
+  // Tokens are stored hashed (SHA-256), never in plain; check_token returns the role of a known
+  // token. add_token throws pl::Error for an empty token or one that is already registered.
+  void add_token(const std::string& token, Role role, const std::string& note);
+  std::optional<Role> check_token(const std::string& token) const;
+
+  // The append-only upload log (triggers refuse UPDATE and DELETE). `action` must not be empty;
+  // upload_log(map) lists the map's entries oldest first.
+  void log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
+                  const std::string& detail, const std::string& who);
+  struct LogEntry {
+    std::int64_t id;
+    std::string at, map, action, detail, who;
+    std::optional<std::int64_t> version;
+  };
+  std::vector<LogEntry> upload_log(const std::string& map) const;
+
+  // Groups writes into one transaction (imports of thousands of tiles); rolls back unless committed.
+  // Takes the write lock at once (BEGIN IMMEDIATE); inside another open Transaction it is a
+  // savepoint. Each Store call inside it is all-or-nothing on its own (a failed put_tile leaves the
+  // Transaction's earlier writes in place).
+  class Transaction {
+   public:
+    explicit Transaction(Store& store);
+    void commit();
+    ~Transaction();
+    Transaction(const Transaction&) = delete;
+    Transaction& operator=(const Transaction&) = delete;
+
+   private:
+    Store& store_;
+    bool done_ = false;
+    bool nested_ = false;  // a SAVEPOINT inside an already open transaction (else BEGIN IMMEDIATE)
+  };
+
+  std::int64_t database_bytes() const;  // page_count * page_size
+  // PRAGMA integrity_check == "ok", no foreign key violations, and the R*Tree is sound and holds
+  // exactly one entry (containing the tile's xy box) per tile. False for a corrupt file.
+  bool integrity_ok() const;
+
+ private:
+  explicit Store(std::string path);
+  std::string path_;
+  void* db_ = nullptr;  // sqlite3*
+};
+
+}  // namespace pl::store

@@ -1,0 +1,70 @@
+// The HTTP API of pl-server (schema/openapi.yaml), independent of the network layer: a request in,
+// a response out. Thread-safe: each thread uses its own connection to the map store.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace pl::server {
+
+struct ApiConfig {
+  std::string db;
+  bool read_token_required = false;
+  std::size_t blob_cache_bytes = 256u << 20;  // immutable tiles kept in memory, by content hash
+};
+
+struct ApiRequest {
+  std::string method;
+  std::string target;  // path and query
+  std::string body;
+  std::string authorization;
+  std::string if_none_match;
+};
+
+struct ApiResponse {
+  int status = 200;
+  std::string body;
+  std::string content_type = "application/json";
+  std::vector<std::pair<std::string, std::string>> headers;
+  std::string route;  // the route template, for metrics ("/v1/maps/{map}/roi")
+};
+
+// Prometheus metrics: requests by route and status, latency histogram, bytes served, connections.
+class Metrics {
+ public:
+  void observe(const std::string& route, int status, double seconds, std::size_t bytes);
+  std::atomic<long> open_connections{0};
+  std::string render(std::int64_t database_bytes) const;
+
+ private:
+  static constexpr double kBuckets[] = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 1.0};
+  mutable std::mutex mutex_;
+  std::map<std::pair<std::string, int>, std::uint64_t> requests_;
+  std::uint64_t buckets_[sizeof(kBuckets) / sizeof(double) + 1] = {};
+  double latency_sum_ = 0.0;
+  std::uint64_t latency_count_ = 0;
+  std::uint64_t bytes_ = 0;
+};
+
+class Api {
+ public:
+  Api(ApiConfig cfg, Metrics& metrics);
+  ~Api();
+  ApiResponse handle(const ApiRequest& req);
+  // Largest body accepted for a route (413 beyond): tiles up to 64 MB, JSON bodies 64 KB, else 0.
+  static std::size_t body_limit(const std::string& method, const std::string& target);
+  void set_draining(bool on) { draining_ = on; }
+  bool ready();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::atomic<bool> draining_{false};
+};
+
+}  // namespace pl::server

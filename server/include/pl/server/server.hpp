@@ -1,0 +1,41 @@
+// pl-server's network side: an HTTP/1.1 server (Boost.Beast) with keep-alive, limits on headers,
+// bodies, idle and read time and connections, one access-log line per request, and a graceful stop.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "pl/server/api.hpp"
+
+namespace pl::server {
+
+struct ServerConfig {
+  ApiConfig api;
+  std::string host = "127.0.0.1";
+  std::uint16_t port = 8080;  // 0: any free port (the one chosen is printed)
+  int threads = 2;
+  std::size_t header_limit = 8 * 1024;
+  double read_timeout_s = 10.0;  // to receive a whole request once it has started
+  double idle_timeout_s = 30.0;  // between requests on a kept-alive connection
+  double drain_timeout_s = 10.0; // on SIGTERM: how long in-flight requests may take
+  long max_connections = 1024;
+  bool access_log = true;
+};
+
+class Server {
+ public:
+  explicit Server(ServerConfig cfg);
+  ~Server();
+  std::uint16_t port() const;  // the bound port
+  // Serves until SIGTERM/SIGINT (or stop()): then stops accepting, lets in-flight requests finish
+  // within the drain timeout, and returns.
+  void run();
+  void stop();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace pl::server

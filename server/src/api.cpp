@@ -1,0 +1,578 @@
+#include "pl/server/api.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <set>
+#include <shared_mutex>
+#include <sstream>
+#include <unordered_map>
+
+#include "pl/common/error.hpp"
+#include "pl/common/text.hpp"
+#include "pl/common/tile_codec.hpp"
+#include "pl/common/tile_key.hpp"
+#include "pl/schema/store.hpp"
+
+using nlohmann::json;
+
+namespace pl::server {
+
+// ---------------------------------------------------------------------------------------------
+// Metrics
+
+constexpr double Metrics::kBuckets[];
+
+void Metrics::observe(const std::string& route, int status, double seconds, std::size_t bytes) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++requests_[{route, status}];
+  std::size_t b = 0;
+  while (b < sizeof(kBuckets) / sizeof(double) && seconds > kBuckets[b]) ++b;
+  ++buckets_[b];
+  latency_sum_ += seconds;
+  ++latency_count_;
+  bytes_ += bytes;
+}
+
+std::string Metrics::render(std::int64_t database_bytes) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::ostringstream o;
+  o << "# HELP pl_requests_total HTTP requests by route and status.\n# TYPE pl_requests_total counter\n";
+  for (const auto& [k, n] : requests_) o << "pl_requests_total{route=\"" << k.first << "\",status=\"" << k.second << "\"} " << n << "\n";
+  o << "# HELP pl_request_duration_seconds Time from a parsed request to its response.\n"
+       "# TYPE pl_request_duration_seconds histogram\n";
+  std::uint64_t cum = 0;
+  for (std::size_t b = 0; b < sizeof(kBuckets) / sizeof(double); ++b) {
+    cum += buckets_[b];
+    o << "pl_request_duration_seconds_bucket{le=\"" << kBuckets[b] << "\"} " << cum << "\n";
+  }
+  cum += buckets_[sizeof(kBuckets) / sizeof(double)];
+  o << "pl_request_duration_seconds_bucket{le=\"+Inf\"} " << cum << "\n";
+  o << "pl_request_duration_seconds_sum " << latency_sum_ << "\npl_request_duration_seconds_count " << latency_count_ << "\n";
+  o << "# HELP pl_bytes_served_total Response body bytes sent.\n# TYPE pl_bytes_served_total counter\n";
+  o << "pl_bytes_served_total " << bytes_ << "\n";
+  o << "# HELP pl_open_connections Connections open now.\n# TYPE pl_open_connections gauge\n";
+  o << "pl_open_connections " << open_connections.load() << "\n";
+  o << "# HELP pl_database_bytes Size of the map store.\n# TYPE pl_database_bytes gauge\n";
+  o << "pl_database_bytes " << database_bytes << "\n";
+  return o.str();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Helpers
+
+namespace {
+
+struct HttpError {
+  int status;
+  std::string message;
+};
+
+[[noreturn]] void fail(int status, const std::string& message) { throw HttpError{status, message}; }
+
+ApiResponse json_response(int status, const json& j, const std::string& route) {
+  ApiResponse r;
+  r.status = status;
+  r.body = j.dump() + "\n";
+  r.route = route;
+  return r;
+}
+
+std::string url_decode(std::string_view s) {
+  std::string out;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s[i] == '%' && i + 2 < s.size() && std::isxdigit(static_cast<unsigned char>(s[i + 1])) &&
+        std::isxdigit(static_cast<unsigned char>(s[i + 2]))) {
+      out += static_cast<char>(std::stoi(std::string(s.substr(i + 1, 2)), nullptr, 16));
+      i += 2;
+    } else if (s[i] == '+') {
+      out += ' ';
+    } else {
+      out += s[i];
+    }
+  }
+  return out;
+}
+
+struct Target {
+  std::vector<std::string> segments;
+  std::map<std::string, std::string> query;
+};
+
+Target parse_target(const std::string& target) {
+  Target t;
+  auto q = target.find('?');
+  std::string path = target.substr(0, q);
+  for (auto seg : split_fields(path, "/")) t.segments.push_back(url_decode(seg));
+  if (q != std::string::npos) {
+    std::string qs = target.substr(q + 1);
+    for (auto kv : split_fields(qs, "&")) {
+      auto eq = kv.find('=');
+      std::string k = url_decode(kv.substr(0, eq)), v = eq == std::string_view::npos ? "" : url_decode(kv.substr(eq + 1));
+      t.query[k] = v;
+    }
+  }
+  return t;
+}
+
+double query_number(const Target& t, const std::string& key, bool required, double fallback) {
+  auto it = t.query.find(key);
+  if (it == t.query.end()) {
+    if (required) fail(400, "missing query parameter " + key);
+    return fallback;
+  }
+  double v;
+  if (!parse_double(it->second, v)) fail(400, "query parameter " + key + " must be a number, got \"" + it->second + "\"");
+  return v;
+}
+
+std::int64_t parse_version(const std::string& s) {
+  long long v = 0;
+  if (!parse_int(s, v) || v < 1) fail(400, "version must be a positive whole number, got \"" + s + "\"");
+  return v;
+}
+
+std::int32_t parse_tile_index(const std::string& s) {
+  long long v = 0;
+  if (!parse_int(s, v) || v < INT32_MIN || v > INT32_MAX) fail(400, "tile index must be a whole number, got \"" + s + "\"");
+  return static_cast<std::int32_t>(v);
+}
+
+bool is_hash(const std::string& s) {
+  return s.size() == 64 && std::all_of(s.begin(), s.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)) || (c >= 'a' && c <= 'f'); });
+}
+
+std::string tile_url(const std::string& map, std::int64_t v, const TileKey& k) {
+  return "/v1/maps/" + map + "/versions/" + std::to_string(v) + "/tiles/" + std::to_string(k.tx) + "/" + std::to_string(k.ty);
+}
+
+// Content-addressed tiles never change: a byte-bounded cache shared by all threads.
+class BlobCache {
+ public:
+  explicit BlobCache(std::size_t capacity) : capacity_(capacity) {}
+  std::shared_ptr<const std::string> get(const std::string& hash) {
+    std::shared_lock lock(mutex_);
+    auto it = map_.find(hash);
+    return it == map_.end() ? nullptr : it->second;
+  }
+  void put(const std::string& hash, std::shared_ptr<const std::string> bytes) {
+    if (bytes->size() > capacity_) return;
+    std::unique_lock lock(mutex_);
+    if (map_.count(hash)) return;
+    size_ += bytes->size();
+    map_.emplace(hash, std::move(bytes));
+    order_.push_back(hash);
+    while (size_ > capacity_ && !order_.empty()) {  // oldest first
+      auto it = map_.find(order_.front());
+      size_ -= it->second->size();
+      map_.erase(it);
+      order_.pop_front();
+    }
+  }
+
+ private:
+  std::size_t capacity_, size_ = 0;
+  std::shared_mutex mutex_;
+  std::unordered_map<std::string, std::shared_ptr<const std::string>> map_;
+  std::deque<std::string> order_;
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// The API
+
+struct Api::Impl {
+  ApiConfig cfg;
+  Metrics& metrics;
+  BlobCache blobs;
+  // Tile lookups of published and retired versions (immutable): "map/v/tx/ty" -> hash.
+  std::shared_mutex tiles_mutex;
+  std::unordered_map<std::string, std::string> tile_hashes;
+
+  Impl(ApiConfig c, Metrics& m) : cfg(std::move(c)), metrics(m), blobs(cfg.blob_cache_bytes) {}
+
+  // One store connection per thread (SQLite connections must not be shared across threads).
+  store::Store& db() {
+    thread_local std::unique_ptr<store::Store> conn;
+    thread_local std::string conn_path;
+    if (!conn || conn_path != cfg.db) {
+      conn = std::make_unique<store::Store>(store::Store::open(cfg.db, false));
+      conn_path = cfg.db;
+    }
+    return *conn;
+  }
+
+  std::optional<store::Role> role_of(const ApiRequest& req) {
+    if (req.authorization.empty()) return std::nullopt;
+    const std::string prefix = "Bearer ";
+    if (req.authorization.rfind(prefix, 0) != 0) fail(401, "the Authorization header must be \"Bearer TOKEN\"");
+    auto role = db().check_token(req.authorization.substr(prefix.size()));
+    if (!role) fail(401, "unknown token");
+    return role;
+  }
+  void require_role(const ApiRequest& req, store::Role needed) {
+    auto role = role_of(req);
+    if (!role) fail(401, std::string("this needs a bearer token with the ") + store::role_name(needed) + " role");
+    if (static_cast<int>(*role) < static_cast<int>(needed))
+      fail(403, std::string("this needs the ") + store::role_name(needed) + " role; the token has " + store::role_name(*role));
+  }
+  // Readers: a token is needed only with --read-token-required. Returns whether staged versions show.
+  bool check_reader(const ApiRequest& req) {
+    auto role = role_of(req);
+    if (cfg.read_token_required && !role) fail(401, "this server needs a bearer token to read maps");
+    return role && static_cast<int>(*role) >= static_cast<int>(store::Role::Upload);
+  }
+
+  store::MapInfo need_map(const std::string& name) {
+    auto m = db().find_map(name);
+    if (!m) fail(404, "no map named \"" + name + "\"");
+    return *m;
+  }
+  store::VersionInfo need_version(const store::MapInfo& m, std::int64_t v, bool staged_visible) {
+    auto info = db().find_version(m.name, v);
+    if (!info || (info->state == store::VersionState::Staged && !staged_visible))
+      fail(404, "map " + m.name + " has no version " + std::to_string(v));
+    return *info;
+  }
+
+  ApiResponse list_maps(const ApiRequest& req) {
+    check_reader(req);
+    json maps = json::array();
+    for (const auto& m : db().list_maps())
+      maps.push_back({{"name", m.name}, {"current_version", m.current ? json(*m.current) : json(nullptr)}});
+    return json_response(200, {{"maps", maps}}, "/v1/maps");
+  }
+
+  ApiResponse create_map(const ApiRequest& req) {
+    require_role(req, store::Role::Admin);
+    json j;
+    try {
+      j = json::parse(req.body);
+      std::string name = j.at("name").get<std::string>();
+      const json& o = j.at("origin");
+      GeoPoint origin{o.at("lat").get<double>(), o.at("lon").get<double>(), o.value("alt", 0.0)};
+      double tile = j.value("tile_size", 20.0), voxel = j.value("voxel_size", 0.2);
+      if (!(tile >= 1.0 && tile <= 1000.0) || !(voxel > 0.0 && voxel <= 5.0)) fail(400, "tile_size must be in [1, 1000] m and voxel_size in (0, 5] m");
+      if (std::abs(origin.lat_deg) > 90 || std::abs(origin.lon_deg) > 180) fail(400, "origin lat must be in [-90, 90] and lon in [-180, 180]");
+      if (db().find_map(name)) fail(409, "a map named \"" + name + "\" exists already");
+      store::MapInfo m;
+      try {
+        m = db().create_map(name, origin, tile, voxel);
+      } catch (const Error& e) {
+        fail(400, e.what());
+      }
+      db().log_upload(name, std::nullopt, "create_map", req.body, "api");
+      return json_response(201, {{"name", m.name}, {"tile_size", m.tile_size}, {"voxel_size", m.voxel_size}}, "/v1/maps");
+    } catch (const json::exception& e) {
+      fail(400, std::string("expected JSON {\"name\", \"origin\": {\"lat\", \"lon\", \"alt\"}, \"tile_size\", \"voxel_size\"}: ") + e.what());
+    }
+  }
+
+  ApiResponse manifest(const ApiRequest& req, const std::string& name) {
+    check_reader(req);
+    auto m = need_map(name);
+    json j = {{"name", m.name},
+              {"current_version", m.current ? json(*m.current) : json(nullptr)},
+              {"origin", {{"lat", m.origin.lat_deg}, {"lon", m.origin.lon_deg}, {"alt", m.origin.alt_m}}},
+              {"tile_size", m.tile_size},
+              {"voxel_size", m.voxel_size}};
+    if (m.current) {
+      auto v = db().find_version(name, *m.current);
+      auto tiles = db().list_tiles(name, *m.current);
+      double lx = INFINITY, ly = INFINITY, lz = INFINITY, hx = -INFINITY, hy = -INFINITY, hz = -INFINITY;
+      for (const auto& t : tiles) {
+        lx = std::min(lx, t.min_x), ly = std::min(ly, t.min_y), lz = std::min(lz, t.min_z);
+        hx = std::max(hx, t.max_x), hy = std::max(hy, t.max_y), hz = std::max(hz, t.max_z);
+      }
+      j["tile_count"] = tiles.size();
+      j["points"] = v ? v->points : 0;
+      j["bytes"] = v ? v->bytes : 0;
+      if (!tiles.empty()) j["bounds"] = {{"min", {lx, ly, lz}}, {"max", {hx, hy, hz}}};
+    } else {
+      j["tile_count"] = 0;
+      j["points"] = 0;
+      j["bytes"] = 0;
+    }
+    return json_response(200, j, "/v1/maps/{map}");
+  }
+
+  ApiResponse roi(const ApiRequest& req, const std::string& name, const Target& t) {
+    bool staged = check_reader(req);
+    auto m = need_map(name);
+    double x = query_number(t, "x", true, 0), y = query_number(t, "y", true, 0), r = query_number(t, "radius", true, 0);
+    if (!(r >= 0 && r <= 5000)) fail(400, "radius must be between 0 and 5000 m");
+    std::int64_t version = 0;
+    if (t.query.count("version")) {
+      version = need_version(m, parse_version(t.query.at("version")), staged).number;
+    } else {
+      if (!m.current) fail(404, "map " + name + " has no published version");
+      version = *m.current;
+    }
+    std::set<std::string> have;
+    if (t.query.count("have"))
+      for (auto h : split_fields(t.query.at("have"), ",")) {
+        std::string hs(h);
+        if (!is_hash(hs)) fail(400, "have= takes comma-separated tile hashes (64 hex digits)");
+        have.insert(hs);
+      }
+    TileGrid grid(m.tile_size);
+    json tiles = json::array();
+    std::set<std::string> in_roi;
+    // Candidates from the R*Tree over tile boxes (grown by a tile, since a tile's points need not
+    // reach its square's edge), then the exact test against each tile's square.
+    for (const auto& rec : db().tiles_in_box(name, version, x - r - m.tile_size, y - r - m.tile_size, x + r + m.tile_size, y + r + m.tile_size)) {
+      TileBounds b = grid.bounds_of(rec.key);
+      double dx = std::max({b.min_x - x, 0.0, x - b.max_x}), dy = std::max({b.min_y - y, 0.0, y - b.max_y});
+      if (dx * dx + dy * dy > r * r) continue;
+      in_roi.insert(rec.hash);
+      if (have.count(rec.hash)) continue;
+      tiles.push_back({{"tx", rec.key.tx}, {"ty", rec.key.ty}, {"hash", rec.hash}, {"url", tile_url(name, version, rec.key)},
+                       {"points", rec.points}, {"bytes", rec.bytes}});
+    }
+    json drop = json::array();
+    for (const auto& h : have)
+      if (!in_roi.count(h)) drop.push_back(h);
+    return json_response(200, {{"version", version}, {"tile_size", m.tile_size}, {"tiles", tiles}, {"drop", drop}}, "/v1/maps/{map}/roi");
+  }
+
+  ApiResponse blob_response(const ApiRequest& req, const std::string& hash, const std::string& route) {
+    std::string etag = "\"" + hash + "\"";
+    ApiResponse r;
+    r.route = route;
+    r.headers = {{"ETag", etag}, {"Cache-Control", "public, max-age=31536000, immutable"}};
+    if (!req.if_none_match.empty() && (req.if_none_match == "*" || req.if_none_match.find(etag) != std::string::npos)) {
+      r.status = 304;
+      r.content_type.clear();
+      return r;
+    }
+    auto bytes = blobs.get(hash);
+    if (!bytes) {
+      auto b = db().blob(hash);
+      if (!b) fail(404, "no tile with hash " + hash);
+      bytes = std::make_shared<const std::string>(std::move(*b));
+      blobs.put(hash, bytes);
+    }
+    r.status = 200;
+    r.content_type = "application/vnd.google.draco";
+    r.body = *bytes;
+    return r;
+  }
+
+  ApiResponse get_tile(const ApiRequest& req, const std::string& name, const std::string& vs, const std::string& txs, const std::string& tys) {
+    const std::string route = "/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}";
+    bool staged = check_reader(req);
+    std::int64_t v = parse_version(vs);
+    TileKey key{parse_tile_index(txs), parse_tile_index(tys)};
+    std::string cache_key = name + "/" + std::to_string(v) + "/" + std::to_string(key.tx) + "/" + std::to_string(key.ty);
+    {
+      std::shared_lock lock(tiles_mutex);
+      auto it = tile_hashes.find(cache_key);
+      if (it != tile_hashes.end()) return blob_response(req, it->second, route);
+    }
+    auto m = need_map(name);
+    auto info = need_version(m, v, staged);
+    auto rec = db().find_tile(name, v, key);
+    if (!rec) fail(404, "map " + name + " version " + std::to_string(v) + " has no tile " + std::to_string(key.tx) + "/" + std::to_string(key.ty));
+    if (info.state != store::VersionState::Staged) {
+      std::unique_lock lock(tiles_mutex);
+      tile_hashes.emplace(cache_key, rec->hash);
+    }
+    return blob_response(req, rec->hash, route);
+  }
+
+  ApiResponse list_tiles(const ApiRequest& req, const std::string& name, const std::string& vs) {
+    bool staged = check_reader(req);
+    auto m = need_map(name);
+    auto info = need_version(m, parse_version(vs), staged);
+    json tiles = json::array();
+    for (const auto& t : db().list_tiles(name, info.number))
+      tiles.push_back({{"tx", t.key.tx}, {"ty", t.key.ty}, {"hash", t.hash}, {"points", t.points}, {"bytes", t.bytes}});
+    return json_response(200, {{"version", info.number}, {"state", store::state_name(info.state)}, {"tiles", tiles}},
+                         "/v1/maps/{map}/versions/{v}/tiles");
+  }
+
+  store::VersionInfo need_staged(const ApiRequest& req, const std::string& name, const std::string& vs) {
+    require_role(req, store::Role::Upload);
+    auto m = need_map(name);
+    auto info = need_version(m, parse_version(vs), true);
+    if (info.state != store::VersionState::Staged)
+      fail(409, "map " + name + " version " + std::to_string(info.number) + " is " + store::state_name(info.state) +
+                    ": open a new version with POST /v1/maps/" + name + "/versions");
+    return info;
+  }
+
+  ApiResponse put_tile(const ApiRequest& req, const std::string& name, const std::string& vs, const std::string& txs, const std::string& tys) {
+    const std::string route = "/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}";
+    auto info = need_staged(req, name, vs);
+    TileKey key{parse_tile_index(txs), parse_tile_index(tys)};
+    auto m = need_map(name);
+    TileCloud cloud;
+    try {
+      cloud = decode_tile(req.body);
+    } catch (const Error& e) {
+      fail(422, std::string("the body is not a valid tile: ") + e.what());
+    }
+    if (cloud.points.empty()) fail(422, "the tile has no points");
+    TileBounds b = TileGrid(m.tile_size).bounds_of(key);
+    const double slack = 0.01;  // quantization of positions near the tile's edge
+    Eigen::Vector3d lo = cloud.points.front(), hi = lo;
+    for (const auto& p : cloud.points) {
+      if (p.x() < b.min_x - slack || p.x() > b.max_x + slack || p.y() < b.min_y - slack || p.y() > b.max_y + slack)
+        fail(422, "point (" + std::to_string(p.x()) + ", " + std::to_string(p.y()) + ") lies outside tile " + std::to_string(key.tx) +
+                      "/" + std::to_string(key.ty) + " of this map's " + std::to_string(m.tile_size) + " m grid");
+      lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    }
+    auto rec = db().put_tile(name, info.number, key, req.body, static_cast<std::int64_t>(cloud.size()), lo.x(), lo.y(), lo.z(), hi.x(),
+                             hi.y(), hi.z());
+    db().log_upload(name, info.number, "put_tile", std::to_string(key.tx) + "/" + std::to_string(key.ty) + " " + rec.hash, "api");
+    return json_response(200, {{"tx", key.tx}, {"ty", key.ty}, {"hash", rec.hash}, {"points", rec.points}, {"bytes", rec.bytes}}, route);
+  }
+
+  ApiResponse delete_tile(const ApiRequest& req, const std::string& name, const std::string& vs, const std::string& txs, const std::string& tys) {
+    auto info = need_staged(req, name, vs);
+    TileKey key{parse_tile_index(txs), parse_tile_index(tys)};
+    if (!db().delete_tile(name, info.number, key)) fail(404, "version " + std::to_string(info.number) + " has no tile " + txs + "/" + tys);
+    db().log_upload(name, info.number, "delete_tile", txs + "/" + tys, "api");
+    return json_response(200, {{"deleted", true}}, "/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}");
+  }
+
+  ApiResponse create_version(const ApiRequest& req, const std::string& name) {
+    require_role(req, store::Role::Upload);
+    need_map(name);
+    std::string note;
+    if (!req.body.empty()) {
+      try {
+        note = json::parse(req.body).value("note", "");
+      } catch (const json::exception& e) {
+        fail(400, std::string("expected an optional JSON body {\"note\": \"...\"}: ") + e.what());
+      }
+    }
+    auto v = db().create_version(name, std::nullopt, note);
+    db().log_upload(name, v.number, "create_version", note, "api");
+    return json_response(201, {{"version", v.number}, {"parent", v.parent ? json(*v.parent) : json(nullptr)}, {"state", "staged"}},
+                         "/v1/maps/{map}/versions");
+  }
+
+  ApiResponse publish(const ApiRequest& req, const std::string& name, const std::string& vs) {
+    auto info = need_staged(req, name, vs);
+    db().publish(name, info.number);
+    db().log_upload(name, info.number, "publish", "", "api");
+    return json_response(200, {{"version", info.number}, {"state", "published"}}, "/v1/maps/{map}/versions/{v}/publish");
+  }
+
+  ApiResponse route(const ApiRequest& req, Api& api) {
+    Target t = parse_target(req.target);
+    const auto& s = t.segments;
+    const std::string& m = req.method;
+    auto method_not_allowed = [&](const std::string& route) -> ApiResponse { fail(405, m + " is not allowed on " + route); };
+    if (s.size() == 1 && s[0] == "healthz") return text(200, "ok\n", "/healthz");
+    if (s.size() == 1 && s[0] == "readyz") return api.ready() ? text(200, "ready\n", "/readyz") : text(503, "not ready\n", "/readyz");
+    if (s.size() == 1 && s[0] == "metrics") {
+      ApiResponse r = text(200, metrics.render(db().database_bytes()), "/metrics");
+      r.content_type = "text/plain; version=0.0.4";
+      return r;
+    }
+    if (s.empty() || s[0] != "v1") fail(404, "no such resource: " + req.target);
+    if (s.size() == 3 && s[1] == "blobs") {
+      if (m != "GET" && m != "HEAD") method_not_allowed("/v1/blobs/{hash}");
+      check_reader(req);
+      if (!is_hash(s[2])) fail(400, "a blob is named by its SHA-256 (64 lowercase hex digits)");
+      return blob_response(req, s[2], "/v1/blobs/{hash}");
+    }
+    if (s.size() < 2 || s[1] != "maps") fail(404, "no such resource: " + req.target);
+    if (s.size() == 2) {
+      if (m == "GET") return list_maps(req);
+      if (m == "POST") return create_map(req);
+      method_not_allowed("/v1/maps");
+    }
+    const std::string& map = s[2];
+    if (s.size() == 3) {
+      if (m == "GET") return manifest(req, map);
+      method_not_allowed("/v1/maps/{map}");
+    }
+    if (s.size() == 4 && s[3] == "roi") {
+      if (m == "GET") return roi(req, map, t);
+      method_not_allowed("/v1/maps/{map}/roi");
+    }
+    if (s[3] != "versions") fail(404, "no such resource: " + req.target);
+    if (s.size() == 4) {
+      if (m == "POST") return create_version(req, map);
+      method_not_allowed("/v1/maps/{map}/versions");
+    }
+    if (s.size() == 6 && s[5] == "publish") {
+      if (m == "POST") return publish(req, map, s[4]);
+      method_not_allowed("/v1/maps/{map}/versions/{v}/publish");
+    }
+    if (s.size() == 6 && s[5] == "tiles") {
+      if (m == "GET") return list_tiles(req, map, s[4]);
+      method_not_allowed("/v1/maps/{map}/versions/{v}/tiles");
+    }
+    if (s.size() == 8 && s[5] == "tiles") {
+      if (m == "GET" || m == "HEAD") return get_tile(req, map, s[4], s[6], s[7]);
+      if (m == "PUT") return put_tile(req, map, s[4], s[6], s[7]);
+      if (m == "DELETE") return delete_tile(req, map, s[4], s[6], s[7]);
+      method_not_allowed("/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}");
+    }
+    fail(404, "no such resource: " + req.target);
+  }
+
+  static ApiResponse text(int status, std::string body, const std::string& route) {
+    ApiResponse r;
+    r.status = status;
+    r.body = std::move(body);
+    r.content_type = "text/plain";
+    r.route = route;
+    return r;
+  }
+};
+
+Api::Api(ApiConfig cfg, Metrics& metrics) : impl_(std::make_unique<Impl>(std::move(cfg), metrics)) {
+  impl_->db();  // fail at start-up, not on the first request, when the store cannot be opened
+}
+
+Api::~Api() = default;
+
+bool Api::ready() {
+  if (draining_) return false;
+  try {
+    impl_->db().find_map("");
+    return true;
+  } catch (...) {
+    return false;
+  }
+}
+
+std::size_t Api::body_limit(const std::string& method, const std::string& target) {
+  if (method == "PUT" && target.find("/tiles/") != std::string::npos) return 64u << 20;
+  if (method == "POST") return 64u << 10;
+  return 0;
+}
+
+// The route template of a target, for metrics of requests that failed before reaching a handler.
+static std::string route_template(const std::string& target) {
+  Target t = parse_target(target);
+  const auto& s = t.segments;
+  if (s.size() == 1 && (s[0] == "healthz" || s[0] == "readyz" || s[0] == "metrics")) return "/" + s[0];
+  if (s.size() < 2 || s[0] != "v1") return "other";
+  if (s[1] == "blobs" && s.size() == 3) return "/v1/blobs/{hash}";
+  if (s[1] != "maps") return "other";
+  static const char* names[] = {"v1", "maps", "{map}", "", "{v}", "", "{tx}", "{ty}"};
+  std::string out;
+  for (std::size_t i = 0; i < s.size() && i < 8; ++i) out += "/" + (names[i][0] ? std::string(names[i]) : s[i]);
+  return s.size() > 8 ? "other" : out;
+}
+
+ApiResponse Api::handle(const ApiRequest& req) {
+  try {
+    return impl_->route(req, *this);
+  } catch (const HttpError& e) {
+    return json_response(e.status, {{"error", e.message}, {"status", e.status}}, route_template(req.target));
+  } catch (const std::exception& e) {
+    return json_response(500, {{"error", std::string("internal error: ") + e.what()}, {"status", 500}}, route_template(req.target));
+  }
+}
+
+}  // namespace pl::server

@@ -1,0 +1,297 @@
+#include "pl/server/server.hpp"
+
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/signal_set.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "pl/common/error.hpp"
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+
+namespace pl::server {
+
+namespace {
+
+std::chrono::milliseconds ms(double s) { return std::chrono::milliseconds(static_cast<long>(s * 1000)); }
+
+std::string utc_now() {
+  std::time_t t = std::time(nullptr);
+  char buf[32];
+  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  return buf;
+}
+
+std::mutex log_mutex;
+
+}  // namespace
+
+struct Server::Impl {
+  ServerConfig cfg;
+  Metrics metrics;
+  Api api;
+  net::io_context ioc;
+  tcp::acceptor acceptor;
+  net::signal_set signals;
+  std::atomic<bool> stopping{false};
+
+  explicit Impl(ServerConfig c)
+      : cfg(std::move(c)), api(cfg.api, metrics), ioc(std::max(1, cfg.threads)), acceptor(ioc), signals(ioc, SIGINT, SIGTERM) {
+    tcp::endpoint ep(net::ip::make_address(cfg.host), cfg.port);
+    acceptor.open(ep.protocol());
+    acceptor.set_option(net::socket_base::reuse_address(true));
+    acceptor.bind(ep);
+    acceptor.listen(net::socket_base::max_listen_connections);
+  }
+
+  // One connection: read a request, answer it, repeat while kept alive.
+  class Session : public std::enable_shared_from_this<Session> {
+   public:
+    Session(tcp::socket&& socket, Impl& server) : stream_(std::move(socket)), server_(server) {
+      beast::error_code ec;
+      auto ep = stream_.socket().remote_endpoint(ec);
+      remote_ = ec ? "?" : ep.address().to_string() + ":" + std::to_string(ep.port());
+      ++server_.metrics.open_connections;
+    }
+    ~Session() {
+      --server_.metrics.open_connections;
+      std::lock_guard<std::mutex> lock(server_.sessions_mutex);
+      server_.sessions.erase(this);
+    }
+
+    void start() {
+      {
+        std::lock_guard<std::mutex> lock(server_.sessions_mutex);
+        server_.sessions[this] = weak_from_this();
+      }
+      net::dispatch(stream_.get_executor(), beast::bind_front_handler(&Session::read, shared_from_this()));
+    }
+
+    // On shutdown: a connection waiting for its next request is closed now; one in the middle of a
+    // request finishes it (the response says Connection: close).
+    void drain() {
+      net::dispatch(stream_.get_executor(), [self = shared_from_this()] {
+        if (self->idle_ && self->buffer_.size() == 0) self->stream_.cancel();
+      });
+    }
+
+   private:
+    void read() {
+      parser_.emplace();
+      parser_->header_limit(static_cast<std::uint32_t>(server_.cfg.header_limit));
+      parser_->body_limit(64u << 20);
+      // Idle between requests, then the read timeout once a request has begun.
+      if (server_.stopping) return close();
+      idle_ = true;
+      stream_.expires_after(ms(first_ ? server_.cfg.read_timeout_s : server_.cfg.idle_timeout_s));
+      http::async_read_header(stream_, buffer_, *parser_, beast::bind_front_handler(&Session::on_header, shared_from_this()));
+    }
+
+    void on_header(beast::error_code ec, std::size_t) {
+      idle_ = false;
+      if (ec) return fail_read(ec);
+      first_ = false;
+      auto& req = parser_->get();
+      std::size_t limit = Api::body_limit(std::string(req.method_string()), std::string(req.target()));
+      auto length = parser_->content_length();
+      if (length && *length > limit) {
+        linger_ = true;  // the client is still sending the body: let it finish so it reads the 413
+        return reject(413, "the body is larger than this route accepts (" + std::to_string(limit) + " bytes)");
+      }
+      parser_->body_limit(limit);
+      start_ = std::chrono::steady_clock::now();
+      stream_.expires_after(ms(server_.cfg.read_timeout_s));
+      http::async_read(stream_, buffer_, *parser_, beast::bind_front_handler(&Session::on_read, shared_from_this()));
+    }
+
+    void fail_read(beast::error_code ec) {
+      if (ec == http::error::header_limit) return reject(431, "request headers too large");
+      if (ec == http::error::body_limit) {
+        linger_ = true;
+        return reject(413, "the body is larger than this route accepts");
+      }
+      if (ec == http::error::bad_method || ec == http::error::bad_target || ec == http::error::bad_version ||
+          ec == http::error::bad_field || ec == http::error::bad_value || ec == http::error::bad_content_length ||
+          ec == http::error::bad_chunk || ec == http::error::bad_line_ending)
+        return reject(400, "malformed HTTP request: " + ec.message());
+      close();  // end of stream, timeout, reset: nothing to answer
+    }
+
+    void on_read(beast::error_code ec, std::size_t) {
+      if (ec) return fail_read(ec);
+      auto& req = parser_->get();
+      ApiRequest ar;
+      ar.method = std::string(req.method_string());
+      ar.target = std::string(req.target());
+      ar.body = std::move(req.body());
+      ar.authorization = std::string(req[http::field::authorization]);
+      ar.if_none_match = std::string(req[http::field::if_none_match]);
+      bool keep = req.keep_alive() && !server_.stopping;
+      ApiResponse r = server_.api.handle(ar);
+      send(r, req.version(), keep, ar.method, ar.target);
+    }
+
+    void reject(int status, const std::string& message) {
+      ApiResponse r;
+      r.status = status;
+      r.body = "{\"error\":\"" + message + "\",\"status\":" + std::to_string(status) + "}\n";
+      r.route = "other";
+      start_ = std::chrono::steady_clock::now();
+      std::string method = parser_ && parser_->is_header_done() ? std::string(parser_->get().method_string()) : "-";
+      std::string target = parser_ && parser_->is_header_done() ? std::string(parser_->get().target()) : "-";
+      send(r, 11, false, method, target);
+    }
+
+    void send(const ApiResponse& r, unsigned version, bool keep, const std::string& method, const std::string& target) {
+      auto res = std::make_shared<http::response<http::string_body>>(static_cast<http::status>(r.status), version);
+      res->set(http::field::server, "pl-server");
+      if (!r.content_type.empty()) res->set(http::field::content_type, r.content_type);
+      for (const auto& [k, v] : r.headers) res->set(k, v);
+      bool head = method == "HEAD";
+      res->body() = head ? std::string() : r.body;
+      res->keep_alive(keep);
+      res->prepare_payload();
+      if (head) res->content_length(r.body.size());
+      double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+      std::size_t bytes = head ? 0 : r.body.size();
+      server_.metrics.observe(r.route.empty() ? "other" : r.route, r.status, seconds, bytes);
+      if (server_.cfg.access_log) {
+        std::lock_guard<std::mutex> lock(log_mutex);
+        std::fprintf(stdout, "%s %s \"%s %s\" %d %zu %.3fms\n", utc_now().c_str(), remote_.c_str(), method.c_str(), target.c_str(),
+                     r.status, bytes, seconds * 1000.0);
+        std::fflush(stdout);
+      }
+      response_ = res;
+      stream_.expires_after(ms(server_.cfg.read_timeout_s));
+      http::async_write(stream_, *res, [self = shared_from_this(), keep](beast::error_code ec, std::size_t) {
+        self->response_.reset();
+        if (!ec && self->linger_) return self->linger();
+        if (ec || !keep) return self->close();
+        self->read();
+      });
+    }
+
+    // Lingering close: stop sending, then read and drop what the client still sends (2 s at most),
+    // so that a client busy writing a rejected body gets to read the answer instead of a reset.
+    void linger() {
+      beast::error_code ec;
+      stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
+      stream_.expires_after(std::chrono::seconds(2));
+      discard_.resize(64 * 1024);
+      stream_.async_read_some(net::buffer(discard_), [self = shared_from_this()](beast::error_code e, std::size_t) {
+        if (e) return;  // end of stream or timeout: the session ends
+        self->linger_more();
+      });
+    }
+    void linger_more() {
+      stream_.async_read_some(net::buffer(discard_), [self = shared_from_this()](beast::error_code e, std::size_t) {
+        if (!e) self->linger_more();
+      });
+    }
+
+    void close() {
+      beast::error_code ec;
+      stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
+    }
+
+    beast::tcp_stream stream_;
+    beast::flat_buffer buffer_;
+    std::optional<http::request_parser<http::string_body>> parser_;
+    std::shared_ptr<void> response_;
+    Impl& server_;
+    std::string remote_;
+    bool first_ = true;
+    bool idle_ = false;
+    bool linger_ = false;
+    std::vector<char> discard_;
+    std::chrono::steady_clock::time_point start_;
+  };
+
+  std::mutex sessions_mutex;
+  std::map<Session*, std::weak_ptr<Session>> sessions;
+
+  void accept() {
+    acceptor.async_accept(net::make_strand(ioc), [this](beast::error_code ec, tcp::socket socket) {
+      if (ec) {
+        if (!stopping) accept();
+        return;
+      }
+      if (metrics.open_connections.load() >= cfg.max_connections) {
+        // Over the limit: answer 503 at once and close.
+        static const std::string body = "{\"error\":\"too many connections\",\"status\":503}\n";
+        static const std::string busy = "HTTP/1.1 503 Service Unavailable\r\nContent-Type: application/json\r\nConnection: close\r\n"
+                                        "Content-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body;
+        beast::error_code wec;
+        net::write(socket, net::buffer(busy), wec);
+        socket.shutdown(tcp::socket::shutdown_both, wec);
+      } else {
+        std::make_shared<Session>(std::move(socket), *this)->start();
+      }
+      if (!stopping) accept();
+    });
+  }
+
+  void begin_stop() {
+    if (stopping.exchange(true)) return;
+    api.set_draining(true);
+    beast::error_code ec;
+    acceptor.close(ec);
+    std::vector<std::shared_ptr<Session>> open;
+    {
+      std::lock_guard<std::mutex> lock(sessions_mutex);
+      for (auto& [ptr, weak] : sessions)
+        if (auto sp = weak.lock()) open.push_back(sp);
+    }
+    for (auto& sp : open) sp->drain();
+    // In-flight requests finish (their connections close after the response); whatever is still
+    // open after the drain timeout is cut.
+    auto timer = std::make_shared<net::steady_timer>(ioc, ms(cfg.drain_timeout_s));
+    timer->async_wait([this, timer](beast::error_code) { ioc.stop(); });
+    poll_idle();
+  }
+
+  void poll_idle() {
+    auto timer = std::make_shared<net::steady_timer>(ioc, std::chrono::milliseconds(20));
+    timer->async_wait([this, timer](beast::error_code) {
+      if (metrics.open_connections.load() == 0)
+        ioc.stop();
+      else
+        poll_idle();
+    });
+  }
+};
+
+Server::Server(ServerConfig cfg) : impl_(std::make_unique<Impl>(std::move(cfg))) {}
+Server::~Server() = default;
+
+std::uint16_t Server::port() const { return impl_->acceptor.local_endpoint().port(); }
+
+void Server::run() {
+  impl_->signals.async_wait([this](beast::error_code ec, int) {
+    if (!ec) impl_->begin_stop();
+  });
+  impl_->accept();
+  std::vector<std::thread> pool;
+  for (int i = 1; i < std::max(1, impl_->cfg.threads); ++i) pool.emplace_back([this] { impl_->ioc.run(); });
+  impl_->ioc.run();
+  for (auto& t : pool) t.join();
+}
+
+void Server::stop() {
+  net::post(impl_->ioc, [this] { impl_->begin_stop(); });
+}
+
+}  // namespace pl::server

@@ -1,0 +1,712 @@
+// The map store on a real SQLite file: migrations, maps, versions, tiles, tokens, the upload log,
+// transactions and integrity.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <regex>
+#include <set>
+#include <utility>
+
+#include "pl/common/error.hpp"
+#include "pl/schema/store.hpp"
+#include "store_test_util.hpp"
+#include "test_util.hpp"
+
+namespace {
+
+using pl::store::Role;
+using pl::store::Store;
+using pl::store::TileRecord;
+using pl::store::VersionState;
+using pl::test::count_rows;
+using pl::test::fake_draco;
+using pl::test::put_cell;
+using pl::test::RawDb;
+
+const pl::GeoPoint kOrigin{48.137, 11.575, 519.0};
+
+// The message of the pl::Error that `f` throws ("" when it does not throw one).
+template <typename F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const pl::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+std::string file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+bool is_utc_iso8601(const std::string& s) {
+  return std::regex_match(s, std::regex(R"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3}Z)"));
+}
+
+class StoreTest : public ::testing::Test {
+ protected:
+  pl::test::TempDir dir;
+  std::string path = dir / "maps.db";
+};
+
+// ---- hashing and names ---------------------------------------------------------------------------
+
+TEST(StoreBasics, ContentHashIsSha256Hex) {
+  EXPECT_EQ(pl::store::content_hash(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  EXPECT_EQ(pl::store::content_hash("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  std::string with_nul("a\0b", 3);
+  EXPECT_NE(pl::store::content_hash(with_nul), pl::store::content_hash("a"));
+}
+
+TEST(StoreBasics, RoleAndStateNames) {
+  for (Role r : {Role::Read, Role::Upload, Role::Admin}) EXPECT_EQ(pl::store::parse_role(pl::store::role_name(r)), r);
+  EXPECT_FALSE(pl::store::parse_role("root"));
+  EXPECT_FALSE(pl::store::parse_role(""));
+  EXPECT_LT(Role::Read, Role::Upload);
+  EXPECT_LT(Role::Upload, Role::Admin);
+  EXPECT_STREQ(pl::store::state_name(VersionState::Staged), "staged");
+  EXPECT_STREQ(pl::store::state_name(VersionState::Published), "published");
+  EXPECT_STREQ(pl::store::state_name(VersionState::Retired), "retired");
+}
+
+// ---- opening and migrating -----------------------------------------------------------------------
+
+TEST_F(StoreTest, MigratesAFreshFileAndReopens) {
+  {
+    Store s = Store::open(path);
+    EXPECT_EQ(s.schema_version(), Store::latest_schema_version());
+    EXPECT_GE(Store::latest_schema_version(), 1);
+    EXPECT_EQ(s.path(), path);
+    s.create_map("city", kOrigin, 20.0, 0.2);
+  }
+  {
+    RawDb raw(path);
+    EXPECT_EQ(raw.scalar("PRAGMA user_version"), Store::latest_schema_version());
+    EXPECT_EQ(raw.text("PRAGMA journal_mode"), "wal");
+    for (const char* t : {"maps", "versions", "blobs", "tiles", "tile_rtree", "tokens", "upload_log"})
+      EXPECT_EQ(raw.scalar(std::string("SELECT count(*) FROM sqlite_schema WHERE name = '") + t + "'"), 1) << t;
+  }
+  Store s = Store::open(path, /*create=*/false);
+  EXPECT_EQ(s.schema_version(), Store::latest_schema_version());
+  auto m = s.find_map("city");
+  ASSERT_TRUE(m);
+  EXPECT_DOUBLE_EQ(m->origin.lat_deg, kOrigin.lat_deg);
+  EXPECT_DOUBLE_EQ(m->origin.lon_deg, kOrigin.lon_deg);
+  EXPECT_DOUBLE_EQ(m->origin.alt_m, kOrigin.alt_m);
+  EXPECT_EQ(s.list_maps().size(), 1u);
+  EXPECT_TRUE(s.integrity_ok());
+}
+
+TEST_F(StoreTest, RefusesANewerSchema) {
+  { Store s = Store::open(path); }
+  {
+    RawDb raw(path);
+    ASSERT_EQ(raw.exec("PRAGMA user_version = " + std::to_string(Store::latest_schema_version() + 1)), "");
+  }
+  std::string msg = error_of([&] { Store::open(path); });
+  EXPECT_TRUE(contains(msg, path)) << msg;
+  EXPECT_TRUE(contains(msg, "newer")) << msg;
+  EXPECT_TRUE(contains(msg, "upgrade")) << msg;
+  RawDb raw(path);
+  EXPECT_EQ(raw.scalar("PRAGMA user_version"), Store::latest_schema_version() + 1);  // left alone
+}
+
+TEST_F(StoreTest, RefusesAFileThatIsNotSqlite) {
+  std::string text;
+  while (text.size() < 8192) text += "this is a text file, not a map store\n";
+  pl::test::write_file(path, text);
+  std::string msg = error_of([&] { Store::open(path); });
+  EXPECT_TRUE(contains(msg, path)) << msg;
+  EXPECT_TRUE(contains(msg, "not a SQLite database")) << msg;
+  EXPECT_EQ(file_bytes(path), text);  // untouched
+}
+
+TEST_F(StoreTest, RefusesAnotherApplicationsDatabase) {
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "CREATE TABLE notes (id INTEGER PRIMARY KEY, body TEXT)", nullptr, nullptr, nullptr),
+              SQLITE_OK);
+    sqlite3_close(db);
+  }
+  std::string msg = error_of([&] { Store::open(path); });
+  EXPECT_TRUE(contains(msg, path)) << msg;
+  EXPECT_TRUE(contains(msg, "not a map store")) << msg;
+}
+
+TEST_F(StoreTest, OpenWithoutCreateNeedsAnExistingFile) {
+  std::string msg = error_of([&] { Store::open(path, /*create=*/false); });
+  EXPECT_TRUE(contains(msg, path)) << msg;
+  EXPECT_FALSE(std::filesystem::exists(path));
+}
+
+TEST_F(StoreTest, RefusesAReadOnlyFile) {
+  if (geteuid() == 0) GTEST_SKIP() << "root ignores file permissions";
+  { Store s = Store::open(path); }
+  std::filesystem::permissions(path, std::filesystem::perms::owner_read | std::filesystem::perms::group_read);
+  std::string msg = error_of([&] { Store::open(path); });
+  EXPECT_TRUE(contains(msg, path)) << msg;
+  EXPECT_TRUE(contains(msg, "read-only")) << msg;
+}
+
+TEST_F(StoreTest, MovedStoreKeepsTheConnection) {
+  Store a = Store::open(path);
+  Store b = std::move(a);
+  b.create_map("m", kOrigin, 20, 0.2);
+  Store c = Store::open(dir / "other.db");
+  c = std::move(b);
+  EXPECT_TRUE(c.find_map("m"));
+  EXPECT_EQ(c.path(), path);
+}
+
+// ---- maps ----------------------------------------------------------------------------------------
+
+TEST_F(StoreTest, CreatesFindsAndListsMaps) {
+  Store s = Store::open(path);
+  auto b = s.create_map("b-map", kOrigin, 25.0, 0.1);
+  auto a = s.create_map("a.map_1", {-33.9, 151.2, 3.0}, 20.0, 0.2);
+  EXPECT_GT(a.id, 0);
+  EXPECT_NE(a.id, b.id);
+  EXPECT_EQ(b.name, "b-map");
+  EXPECT_DOUBLE_EQ(b.tile_size, 25.0);
+  EXPECT_DOUBLE_EQ(b.voxel_size, 0.1);
+  EXPECT_FALSE(b.current);
+  EXPECT_TRUE(is_utc_iso8601(b.created)) << b.created;
+
+  auto found = s.find_map("b-map");
+  ASSERT_TRUE(found);
+  EXPECT_EQ(found->id, b.id);
+  EXPECT_EQ(found->created, b.created);
+  EXPECT_FALSE(s.find_map("nope"));
+  EXPECT_FALSE(s.find_map("bad name"));
+
+  auto all = s.list_maps();
+  ASSERT_EQ(all.size(), 2u);
+  EXPECT_EQ(all[0].name, "a.map_1");  // by name
+  EXPECT_EQ(all[1].name, "b-map");
+}
+
+TEST_F(StoreTest, ValidatesMapNamesAndParameters) {
+  Store s = Store::open(path);
+  std::string longest(64, 'x');
+  EXPECT_NO_THROW(s.create_map(longest, kOrigin, 20, 0.2));
+  EXPECT_NO_THROW(s.create_map("Az09_.-", kOrigin, 20, 0.2));
+  for (std::string bad :
+       {std::string(), std::string(65, 'x'), std::string("has space"), std::string("a/b"), std::string("semi;colon"),
+        std::string("quote'"), std::string("tab\t"), std::string("m\xc3\xbcnchen"), std::string("nul\0x", 5)}) {
+    std::string msg = error_of([&] { s.create_map(bad, kOrigin, 20, 0.2); });
+    EXPECT_TRUE(contains(msg, "invalid map name")) << "[" << bad << "] " << msg;
+  }
+  EXPECT_TRUE(contains(error_of([&] { s.create_map("m", {91, 0, 0}, 20, 0.2); }), "origin"));
+  EXPECT_TRUE(contains(error_of([&] { s.create_map("m", {0, -181, 0}, 20, 0.2); }), "origin"));
+  EXPECT_TRUE(contains(error_of([&] { s.create_map("m", kOrigin, 0, 0.2); }), "sizes"));
+  EXPECT_TRUE(contains(error_of([&] { s.create_map("m", kOrigin, 20, -1); }), "sizes"));
+  EXPECT_EQ(s.list_maps().size(), 2u);
+}
+
+TEST_F(StoreTest, RefusesADuplicateMapName) {
+  Store s = Store::open(path);
+  s.create_map("city", kOrigin, 20, 0.2);
+  std::string msg = error_of([&] { s.create_map("city", kOrigin, 30, 0.3); });
+  EXPECT_TRUE(contains(msg, "city")) << msg;
+  EXPECT_TRUE(contains(msg, "already exists")) << msg;
+  EXPECT_DOUBLE_EQ(s.find_map("city")->tile_size, 20);
+}
+
+// ---- versions ------------------------------------------------------------------------------------
+
+TEST_F(StoreTest, VersionLifecycle) {
+  Store s = Store::open(path);
+  s.create_map("m", kOrigin, 10, 0.2);
+
+  auto v1 = s.create_version("m", std::nullopt, "first survey");
+  EXPECT_EQ(v1.number, 1);
+  EXPECT_FALSE(v1.parent);
+  EXPECT_EQ(v1.state, VersionState::Staged);
+  EXPECT_EQ(v1.note, "first survey");
+  EXPECT_EQ(v1.tiles, 0);
+  EXPECT_TRUE(is_utc_iso8601(v1.created));
+  put_cell(s, "m", 1, 0, 0, 1);
+  put_cell(s, "m", 1, 1, 0, 2);
+  put_cell(s, "m", 1, -1, -1, 3);
+  EXPECT_FALSE(s.find_map("m")->current);  // staged: not current
+  s.publish("m", 1);
+  EXPECT_EQ(s.find_map("m")->current, 1);
+  EXPECT_EQ(s.find_version("m", 1)->state, VersionState::Published);
+
+  // A new version starts as a staged copy of the current one.
+  auto v2 = s.create_version("m", std::nullopt, "second");
+  EXPECT_EQ(v2.number, 2);
+  EXPECT_EQ(v2.parent, 1);
+  EXPECT_EQ(v2.state, VersionState::Staged);
+  EXPECT_EQ(v2.tiles, 3);
+  auto t1 = s.list_tiles("m", 1), t2 = s.list_tiles("m", 2);
+  ASSERT_EQ(t1.size(), t2.size());
+  for (std::size_t i = 0; i < t1.size(); ++i) {
+    EXPECT_EQ(t1[i].key, t2[i].key);
+    EXPECT_EQ(t1[i].hash, t2[i].hash);
+    EXPECT_EQ(t1[i].points, t2[i].points);
+    EXPECT_DOUBLE_EQ(t1[i].max_y, t2[i].max_y);
+  }
+  put_cell(s, "m", 2, 5, 5, 4);
+  EXPECT_TRUE(s.delete_tile("m", 2, {0, 0}));
+  EXPECT_EQ(s.find_map("m")->current, 1);  // still 1 until published
+  EXPECT_EQ(s.list_tiles("m", 1).size(), 3u);
+  EXPECT_FALSE(s.find_tile("m", 1, {5, 5}));  // staged tiles only through their version
+
+  s.publish("m", 2);
+  EXPECT_EQ(s.find_map("m")->current, 2);
+  EXPECT_EQ(s.find_version("m", 1)->state, VersionState::Retired);
+  EXPECT_EQ(s.find_version("m", 2)->state, VersionState::Published);
+
+  // Published and retired versions are read-only; publishing them again is refused.
+  for (std::int64_t v : {1, 2}) {
+    std::string state = v == 1 ? "retired" : "published";
+    std::string msg = error_of([&] { put_cell(s, "m", v, 9, 9, 5); });
+    EXPECT_TRUE(contains(msg, "version " + std::to_string(v))) << msg;
+    EXPECT_TRUE(contains(msg, state)) << msg;
+    msg = error_of([&] { s.delete_tile("m", v, {1, 0}); });
+    EXPECT_TRUE(contains(msg, state)) << msg;
+    msg = error_of([&] { s.publish("m", v); });
+    EXPECT_TRUE(contains(msg, "version " + std::to_string(v) + " is " + state)) << msg;
+  }
+  EXPECT_EQ(s.list_tiles("m", 1).size(), 3u);
+
+  auto versions = s.list_versions("m");
+  ASSERT_EQ(versions.size(), 2u);
+  EXPECT_EQ(versions[0].number, 1);
+  EXPECT_EQ(versions[1].number, 2);
+  EXPECT_EQ(versions[1].tiles, 3);
+}
+
+TEST_F(StoreTest, VersionTotalsAndExplicitParent) {
+  Store s = Store::open(path);
+  s.create_map("m", kOrigin, 10, 0.2);
+  s.create_version("m", std::nullopt, "");
+  auto a = put_cell(s, "m", 1, 0, 0, 1, 300);
+  auto b = put_cell(s, "m", 1, 0, 1, 2, 500);
+  auto v = s.find_version("m", 1);
+  ASSERT_TRUE(v);
+  EXPECT_EQ(v->tiles, 2);
+  EXPECT_EQ(v->points, a.points + b.points);
+  EXPECT_EQ(v->bytes, 800);
+
+  // Before any publish, an empty parent means an empty version; an explicit one is copied.
+  auto v2 = s.create_version("m", std::nullopt, "empty");
+  EXPECT_FALSE(v2.parent);
+  EXPECT_EQ(v2.tiles, 0);
+  auto v3 = s.create_version("m", 1, "from staged 1");
+  EXPECT_EQ(v3.number, 3);
+  EXPECT_EQ(v3.parent, 1);
+  EXPECT_EQ(v3.tiles, 2);
+  std::string msg = error_of([&] { s.create_version("m", 7, ""); });
+  EXPECT_TRUE(contains(msg, "no version 7")) << msg;
+  EXPECT_EQ(s.list_versions("m").size(), 3u);
+}
+
+TEST_F(StoreTest, PublishAndRollbackWalkTheHistory) {
+  Store s = Store::open(path);
+  s.create_map("m", kOrigin, 10, 0.2);
+  EXPECT_TRUE(contains(error_of([&] { s.rollback("m"); }), "no published version"));
+  for (int i = 1; i <= 3; ++i) {
+    s.create_version("m", std::nullopt, "v" + std::to_string(i));
+    put_cell(s, "m", i, i, 0, static_cast<std::uint32_t>(i));
+    s.publish("m", i);
+  }
+  EXPECT_EQ(s.find_map("m")->current, 3);
+  EXPECT_EQ(s.rollback("m"), 2);
+  EXPECT_EQ(s.find_map("m")->current, 2);
+  EXPECT_EQ(s.find_version("m", 3)->state, VersionState::Retired);
+  EXPECT_EQ(s.find_version("m", 2)->state, VersionState::Published);
+
+  // A new publish after a rollback replaces 2; rolling back returns to 2, then 1 (never to 3).
+  s.create_version("m", std::nullopt, "v4");
+  EXPECT_EQ(s.find_version("m", 4)->parent, 2);
+  s.publish("m", 4);
+  EXPECT_EQ(s.rollback("m"), 2);
+  EXPECT_EQ(s.rollback("m"), 1);
+  EXPECT_EQ(s.find_map("m")->current, 1);
+  std::string msg = error_of([&] { s.rollback("m"); });
+  EXPECT_TRUE(contains(msg, "first version published")) << msg;
+  EXPECT_EQ(s.find_map("m")->current, 1);
+
+  int published = 0;
+  for (const auto& v : s.list_versions("m")) published += v.state == VersionState::Published;
+  EXPECT_EQ(published, 1);
+  EXPECT_TRUE(s.integrity_ok());
+}
+
+TEST_F(StoreTest, UnknownMapsAndVersions) {
+  Store s = Store::open(path);
+  EXPECT_FALSE(s.find_map("ghost"));
+  EXPECT_FALSE(s.find_version("ghost", 1));
+  EXPECT_TRUE(s.list_versions("ghost").empty());
+  EXPECT_FALSE(s.find_tile("ghost", 1, {0, 0}));
+  EXPECT_TRUE(s.list_tiles("ghost", 1).empty());
+  EXPECT_TRUE(s.tiles_in_box("ghost", 1, -1e9, -1e9, 1e9, 1e9).empty());
+  EXPECT_TRUE(s.upload_log("ghost").empty());
+  for (auto& msg :
+       {error_of([&] { s.create_version("ghost", std::nullopt, ""); }), error_of([&] { s.publish("ghost", 1); }),
+        error_of([&] { s.rollback("ghost"); }), error_of([&] { put_cell(s, "ghost", 1, 0, 0, 1); }), error_of([&] {
+          s.delete_tile("ghost", 1, {0, 0});
+        })}) {
+    EXPECT_TRUE(contains(msg, "unknown map ghost")) << msg;
+    EXPECT_TRUE(contains(msg, path)) << msg;
+  }
+  s.create_map("m", kOrigin, 10, 0.2);
+  EXPECT_FALSE(s.find_version("m", 1));
+  EXPECT_TRUE(contains(error_of([&] { s.publish("m", 1); }), "no version 1"));
+  EXPECT_TRUE(contains(error_of([&] { put_cell(s, "m", 1, 0, 0, 1); }), "no version 1"));
+}
+
+// ---- tiles and blobs -----------------------------------------------------------------------------
+
+TEST_F(StoreTest, PutTileIsIdempotentAndBlobsAreShared) {
+  Store s = Store::open(path);
+  s.create_map("m", kOrigin, 10, 0.2);
+  s.create_version("m", std::nullopt, "");
+  std::string data = fake_draco(42, 1000);
+  auto r1 = s.put_tile("m", 1, {3, -4}, data, 1234, 31, -39, 0, 39, -31, 2);
+  RawDb raw(path);
+  std::int64_t id1 = raw.scalar("SELECT id FROM tiles WHERE tx = 3 AND ty = -4");
+  auto r2 = s.put_tile("m", 1, {3, -4}, data, 1234, 31, -39, 0, 39, -31, 2);
+  EXPECT_EQ(r1.hash, pl::store::content_hash(data));
+  EXPECT_EQ(r1.bytes, 1000);
+  EXPECT_EQ(r2.hash, r1.hash);
+  EXPECT_EQ(raw.scalar("SELECT id FROM tiles WHERE tx = 3 AND ty = -4"), id1);  // same record
+  EXPECT_EQ(count_rows(path, "tiles"), 1);
+  EXPECT_EQ(count_rows(path, "blobs"), 1);
+  EXPECT_EQ(s.blob(r1.hash), data);
+  EXPECT_TRUE(s.has_blob(r1.hash));
+  EXPECT_FALSE(s.has_blob(pl::store::content_hash("other")));
+  EXPECT_FALSE(s.blob(pl::store::content_hash("other")));
+
+  auto found = s.find_tile("m", 1, {3, -4});
+  ASSERT_TRUE(found);
+  EXPECT_EQ(found->hash, r1.hash);
+  EXPECT_EQ(found->points, 1234);
+  EXPECT_DOUBLE_EQ(found->min_x, 31);
+  EXPECT_DOUBLE_EQ(found->min_y, -39);
+  EXPECT_DOUBLE_EQ(found->max_z, 2);
+
+  // The same bytes under another key, and the copy in version 2: more rows, one blob.
+  s.put_tile("m", 1, {0, 0}, data, 1234, 1, 1, 0, 9, 9, 2);
+  s.publish("m", 1);
+  s.create_version("m", std::nullopt, "");
+  EXPECT_EQ(count_rows(path, "tiles"), 4);
+  EXPECT_EQ(count_rows(path, "blobs"), 1);
+
+  // New bytes for a key of version 2: a second blob; version 1 keeps its record and blob.
+  std::string data2 = fake_draco(43, 700);
+  auto r3 = s.put_tile("m", 2, {3, -4}, data2, 99, 31, -39, 0, 39, -31, 2);
+  EXPECT_EQ(count_rows(path, "blobs"), 2);
+  EXPECT_EQ(s.find_tile("m", 1, {3, -4})->hash, r1.hash);
+  EXPECT_EQ(s.find_tile("m", 2, {3, -4})->hash, r3.hash);
+  EXPECT_EQ(s.find_tile("m", 2, {3, -4})->points, 99);
+
+  // Replacing it again drops the now unused blob; the shared one stays.
+  s.put_tile("m", 2, {3, -4}, fake_draco(44, 600), 98, 31, -39, 0, 39, -31, 2);
+  EXPECT_FALSE(s.has_blob(r3.hash));
+  EXPECT_TRUE(s.has_blob(r1.hash));
+  EXPECT_EQ(count_rows(path, "blobs"), 2);
+  EXPECT_TRUE(s.integrity_ok());
+}
+
+TEST_F(StoreTest, DeleteTile) {
+  Store s = Store::open(path);
+  s.create_map("m", kOrigin, 10, 0.2);
+  s.create_version("m", std::nullopt, "");
+  auto shared = put_cell(s, "m", 1, 0, 0, 1);
+  s.publish("m", 1);
+  s.create_version("m", std::nullopt, "");
+  auto own = put_cell(s, "m", 2, 1, 1, 2);
+  EXPECT_TRUE(s.delete_tile("m", 2, {0, 0}));
+  EXPECT_FALSE(s.delete_tile("m", 2, {0, 0}));  // already gone
+  EXPECT_FALSE(s.delete_tile("m", 2, {7, 7}));  // never there
+  EXPECT_FALSE(s.find_tile("m", 2, {0, 0}));
+  EXPECT_TRUE(s.find_tile("m", 1, {0, 0}));
+  EXPECT_TRUE(s.has_blob(shared.hash));  // version 1 still uses it
+  EXPECT_TRUE(s.delete_tile("m", 2, {1, 1}));
+  EXPECT_FALSE(s.has_blob(own.hash));  // nobody uses it any more
+  EXPECT_TRUE(s.tiles_in_box("m", 2, -100, -100, 100, 100).empty());
+  EXPECT_EQ(s.tiles_in_box("m", 1, -100, -100, 100, 100).size(), 1u);
+  EXPECT_EQ(count_rows(path, "tile_rtree"), count_rows(path, "tiles"));
+  EXPECT_TRUE(s.integrity_ok());
+}
+
+TEST_F(StoreTest, PutTileValidatesItsInput) {
+  Store s = Store::open(path);
+  s.create_map("m", kOrigin, 10, 0.2);
+  s.create_version("m", std::nullopt, "");
+  EXPECT_TRUE(contains(error_of([&] { s.put_tile("m", 1, {0, 0}, "", 1, 0, 0, 0, 1, 1, 1); }), "empty"));
+  EXPECT_TRUE(contains(error_of([&] { s.put_tile("m", 1, {0, 0}, "x", -1, 0, 0, 0, 1, 1, 1); }), "negative"));
+  EXPECT_TRUE(contains(error_of([&] { s.put_tile("m", 1, {0, 0}, "x", 1, 2, 0, 0, 1, 1, 1); }), "min > max"));
+  EXPECT_TRUE(contains(error_of([&] { s.put_tile("m", 1, {0, 0}, "x", 1, 0, 0, 0, 1, NAN, 1); }), "finite"));
+  EXPECT_EQ(count_rows(path, "tiles"), 0);
+  EXPECT_EQ(count_rows(path, "blobs"), 0);
+}
+
+TEST_F(StoreTest, TilesInBoxMatchesABruteForceFilter) {
+  Store s = Store::open(path);
+  s.create_map("m", kOrigin, 10, 0.2);
+  s.create_map("other", kOrigin, 10, 0.2);
+  s.create_version("m", std::nullopt, "");
+  s.create_version("other", std::nullopt, "");
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  {
+    Store::Transaction tx(s);
+    for (int tx_ = -6; tx_ <= 5; ++tx_) {
+      for (int ty = -6; ty <= 5; ++ty) {
+        if ((tx_ * 7 + ty * 3) % 5 == 0) continue;  // holes
+        // A random sub-box of the cell, with irrational-looking bounds (not float32-exact).
+        double x0 = tx_ * 10.0, y0 = ty * 10.0;
+        double ax = x0 + 4.9 * u(rng), bx = x0 + 5.0 + 4.999 * u(rng);
+        double ay = y0 + 4.9 * u(rng), by = y0 + 5.0 + 4.999 * u(rng);
+        std::uint32_t seed = static_cast<std::uint32_t>((tx_ + 10) * 100 + ty + 10);
+        s.put_tile("m", 1, {tx_, ty}, fake_draco(seed, 64), 10, ax, ay, -1, bx, by, 1);
+        // The other map has the same keys everywhere: it must never show up in m's answers.
+        s.put_tile("other", 1, {tx_, ty}, fake_draco(seed + 1, 64), 10, x0, y0, -1, x0 + 10, y0 + 10, 1);
+      }
+    }
+    tx.commit();
+  }
+  s.publish("m", 1);
+  s.create_version("m", std::nullopt, "");  // version 2: copies, some moved and deleted
+  s.put_tile("m", 2, {0, 0}, fake_draco(1, 64), 10, 40, 40, 0, 41, 41, 1);
+  s.delete_tile("m", 2, {-6, -6});
+  auto all1 = s.list_tiles("m", 1);
+  auto all2 = s.list_tiles("m", 2);
+  ASSERT_GT(all1.size(), 100u);
+
+  auto brute = [](const std::vector<TileRecord>& all, double x0, double y0, double x1, double y1) {
+    std::vector<TileRecord> out;
+    for (const auto& t : all)
+      if (t.min_x <= x1 && t.max_x >= x0 && t.min_y <= y1 && t.max_y >= y0) out.push_back(t);
+    return out;
+  };
+  auto same = [](const std::vector<TileRecord>& a, const std::vector<TileRecord>& b) {
+    if (a.size() != b.size()) return false;
+    for (std::size_t i = 0; i < a.size(); ++i)
+      if (a[i].key != b[i].key || a[i].hash != b[i].hash || a[i].min_x != b[i].min_x || a[i].max_y != b[i].max_y)
+        return false;
+    return true;
+  };
+
+  std::vector<std::array<double, 4>> queries;
+  std::uniform_real_distribution<double> c(-75.0, 65.0), w(0.0, 30.0);
+  for (int i = 0; i < 300; ++i) {
+    double x = c(rng), y = c(rng);
+    queries.push_back({x, y, x + w(rng) * (i % 3), y + w(rng) * (i % 4)});  // includes points and lines
+  }
+  queries.push_back({-1e9, -1e9, 1e9, 1e9});
+  queries.push_back({1000, 1000, 2000, 2000});
+  // Rectangles that exactly touch a tile's edge from outside (closed boxes: they intersect).
+  for (std::size_t i = 0; i < all1.size(); i += 17) {
+    const auto& t = all1[i];
+    queries.push_back({t.max_x, t.min_y, t.max_x + 3, t.max_y});
+    queries.push_back({t.min_x - 3, t.max_y, t.min_x, t.max_y + 3});
+    queries.push_back({t.min_x - 3, t.min_y - 3, std::nextafter(t.min_x, -1e9), t.max_y});  // just misses
+  }
+  std::size_t nonempty = 0;
+  for (const auto& q : queries) {
+    auto got1 = s.tiles_in_box("m", 1, q[0], q[1], q[2], q[3]);
+    auto want1 = brute(all1, q[0], q[1], q[2], q[3]);
+    EXPECT_TRUE(same(got1, want1)) << q[0] << " " << q[1] << " " << q[2] << " " << q[3] << ": " << got1.size() << " vs "
+                                   << want1.size();
+    auto got2 = s.tiles_in_box("m", 2, q[0], q[1], q[2], q[3]);
+    EXPECT_TRUE(same(got2, brute(all2, q[0], q[1], q[2], q[3])));
+    nonempty += !want1.empty();
+  }
+  EXPECT_GT(nonempty, queries.size() / 3);
+  EXPECT_TRUE(s.tiles_in_box("m", 1, 10, 10, -10, -10).empty());  // inverted
+  EXPECT_TRUE(s.tiles_in_box("m", 1, NAN, 0, 10, 10).empty());
+  EXPECT_TRUE(s.tiles_in_box("m", 3, -1e9, -1e9, 1e9, 1e9).empty());  // no such version
+}
+
+// ---- tokens and the upload log -------------------------------------------------------------------
+
+TEST_F(StoreTest, TokensAreStoredHashed) {
+  const std::string reader = "rd-7f3a9c2e41b84d0f9a6e5c3b2a1d0e9f";
+  const std::string uploader = "up-0a1b2c3d4e5f60718293a4b5c6d7e8f9";
+  const std::string admin = "ad-ffeeddccbbaa99887766554433221100";
+  {
+    Store s = Store::open(path);
+    s.add_token(reader, Role::Read, "viewer");
+    s.add_token(uploader, Role::Upload, "survey car");
+    s.add_token(admin, Role::Admin, "ops");
+    EXPECT_EQ(s.check_token(reader), Role::Read);
+    EXPECT_EQ(s.check_token(uploader), Role::Upload);
+    EXPECT_EQ(s.check_token(admin), Role::Admin);
+    EXPECT_FALSE(s.check_token("rd-unknown"));
+    EXPECT_FALSE(s.check_token(""));
+    EXPECT_FALSE(s.check_token(pl::store::content_hash(reader)));  // the hash is not a token
+    std::string msg = error_of([&] { s.add_token(reader, Role::Admin, "again"); });
+    EXPECT_TRUE(contains(msg, "already registered")) << msg;
+    EXPECT_FALSE(contains(msg, reader));
+    EXPECT_EQ(s.check_token(reader), Role::Read);
+    EXPECT_TRUE(contains(error_of([&] { s.add_token("", Role::Read, ""); }), "empty token"));
+  }
+  // The file (and any WAL left) holds the hashes, never the tokens.
+  std::string bytes;
+  for (const char* suffix : {"", "-wal", "-shm"}) bytes += file_bytes(path + suffix);
+  for (const auto& t : {reader, uploader, admin}) {
+    EXPECT_FALSE(contains(bytes, t)) << t;
+    EXPECT_TRUE(contains(bytes, pl::store::content_hash(t))) << t;
+  }
+  Store s = Store::open(path);
+  EXPECT_EQ(s.check_token(admin), Role::Admin);
+}
+
+TEST_F(StoreTest, UploadLogIsAppendOnly) {
+  {
+    Store s = Store::open(path);
+    s.log_upload("city", 3, "upload", "120 tiles", "survey-car-1");
+    s.log_upload("city", std::nullopt, "create", "", "ops");
+    s.log_upload("elsewhere", 1, "publish", "", "ops");
+    auto log = s.upload_log("city");
+    ASSERT_EQ(log.size(), 2u);
+    EXPECT_EQ(log[0].action, "upload");
+    EXPECT_EQ(log[0].version, 3);
+    EXPECT_EQ(log[0].detail, "120 tiles");
+    EXPECT_EQ(log[0].who, "survey-car-1");
+    EXPECT_EQ(log[0].map, "city");
+    EXPECT_TRUE(is_utc_iso8601(log[0].at)) << log[0].at;
+    EXPECT_EQ(log[1].action, "create");
+    EXPECT_FALSE(log[1].version);
+    EXPECT_LT(log[0].id, log[1].id);
+    EXPECT_TRUE(contains(error_of([&] { s.log_upload("city", 1, "", "", ""); }), "action"));
+  }
+  RawDb raw(path);
+  std::string msg = raw.exec("UPDATE upload_log SET who = 'mallory'");
+  EXPECT_TRUE(contains(msg, "append-only")) << msg;
+  msg = raw.exec("DELETE FROM upload_log WHERE map = 'city'");
+  EXPECT_TRUE(contains(msg, "append-only")) << msg;
+  EXPECT_EQ(raw.scalar("SELECT count(*) FROM upload_log"), 3);
+  EXPECT_EQ(raw.scalar("SELECT count(*) FROM upload_log WHERE who = 'mallory'"), 0);
+  EXPECT_EQ(raw.exec("INSERT INTO upload_log (map, action) VALUES ('x', 'note')"), "");  // appending works
+}
+
+TEST_F(StoreTest, SchemaRefusesTileWritesToPublishedVersions) {
+  {
+    Store s = Store::open(path);
+    s.create_map("m", kOrigin, 10, 0.2);
+    s.create_version("m", std::nullopt, "");
+    put_cell(s, "m", 1, 0, 0, 1);
+    s.publish("m", 1);
+  }
+  RawDb raw(path);
+  ASSERT_EQ(raw.exec("PRAGMA foreign_keys = ON"), "");
+  EXPECT_TRUE(contains(raw.exec("DELETE FROM tiles"), "staged"));
+  EXPECT_TRUE(contains(raw.exec("UPDATE tiles SET points = 0"), "staged"));
+  EXPECT_TRUE(contains(raw.exec("INSERT INTO tiles (map_id, version, tx, ty, hash, points, bytes, min_x, min_y, "
+                                "min_z, max_x, max_y, max_z) SELECT map_id, version, 5, 5, hash, 1, 1, 0, 0, 0, 1, "
+                                "1, 1 FROM tiles"),
+                       "staged"));
+  EXPECT_NE(raw.exec("UPDATE versions SET state = 'staged'"), "");
+  EXPECT_NE(raw.exec("DELETE FROM blobs"), "");  // still used by a tile
+  EXPECT_EQ(raw.scalar("SELECT count(*) FROM tiles"), 1);
+}
+
+// ---- transactions and maintenance ----------------------------------------------------------------
+
+TEST_F(StoreTest, TransactionCommitsAndRollsBackOnDestruction) {
+  Store s = Store::open(path);
+  s.create_map("m", kOrigin, 10, 0.2);
+  s.create_version("m", std::nullopt, "");
+  {
+    Store::Transaction tx(s);
+    for (int i = 0; i < 50; ++i) put_cell(s, "m", 1, i, 0, static_cast<std::uint32_t>(i));
+    tx.commit();
+  }
+  EXPECT_EQ(s.list_tiles("m", 1).size(), 50u);
+  {
+    Store::Transaction tx(s);
+    for (int i = 0; i < 50; ++i) put_cell(s, "m", 1, i, 1, static_cast<std::uint32_t>(100 + i));
+    s.delete_tile("m", 1, {0, 0});
+    s.create_map("n", kOrigin, 10, 0.2);
+    s.publish("m", 1);
+    EXPECT_EQ(s.list_tiles("m", 1).size(), 99u);  // the transaction sees its own writes
+  }                                               // not committed
+  EXPECT_EQ(s.list_tiles("m", 1).size(), 50u);
+  EXPECT_FALSE(s.find_map("n"));
+  EXPECT_FALSE(s.find_map("m")->current);
+  EXPECT_EQ(count_rows(path, "blobs"), 50);
+
+  // An exception leaves the scope: rolled back too.
+  try {
+    Store::Transaction tx(s);
+    put_cell(s, "m", 1, 99, 99, 999);
+    throw std::runtime_error("import failed");
+  } catch (const std::runtime_error&) {
+  }
+  EXPECT_FALSE(s.find_tile("m", 1, {99, 99}));
+  EXPECT_TRUE(s.integrity_ok());
+}
+
+TEST_F(StoreTest, AFailedCallInsideATransactionUndoesOnlyItself) {
+  Store s = Store::open(path);
+  s.create_map("m", kOrigin, 10, 0.2);
+  s.create_version("m", std::nullopt, "");
+  s.publish("m", 1);
+  s.create_version("m", std::nullopt, "");
+  {
+    Store::Transaction tx(s);
+    put_cell(s, "m", 2, 0, 0, 1);
+    EXPECT_THROW(put_cell(s, "m", 1, 0, 0, 2), pl::Error);  // published
+    EXPECT_THROW(s.create_map("m", kOrigin, 10, 0.2), pl::Error);
+    {
+      Store::Transaction inner(s);  // nested: a savepoint
+      put_cell(s, "m", 2, 1, 0, 3);
+    }  // inner rolled back
+    {
+      Store::Transaction inner(s);
+      put_cell(s, "m", 2, 2, 0, 4);
+      inner.commit();
+    }
+    tx.commit();
+  }
+  EXPECT_TRUE(s.find_tile("m", 2, {0, 0}));
+  EXPECT_FALSE(s.find_tile("m", 2, {1, 0}));
+  EXPECT_TRUE(s.find_tile("m", 2, {2, 0}));
+  EXPECT_EQ(count_rows(path, "blobs"), 2);
+}
+
+TEST_F(StoreTest, IntegrityAndSize) {
+  Store s = Store::open(path);
+  EXPECT_TRUE(s.integrity_ok());
+  std::int64_t empty = s.database_bytes();
+  EXPECT_GT(empty, 0);
+  s.create_map("m", kOrigin, 10, 0.2);
+  s.create_version("m", std::nullopt, "note with 'quotes'; DROP TABLE maps; --");
+  {
+    Store::Transaction tx(s);
+    for (int i = 0; i < 20; ++i) put_cell(s, "m", 1, i, -i, static_cast<std::uint32_t>(i), 50000);
+    tx.commit();
+  }
+  s.delete_tile("m", 1, {3, -3});
+  put_cell(s, "m", 1, 4, -4, 77, 100);
+  s.publish("m", 1);
+  s.create_version("m", std::nullopt, "");
+  s.log_upload("m", 1, "upload", "", "");
+  EXPECT_EQ(s.find_version("m", 1)->note, "note with 'quotes'; DROP TABLE maps; --");
+  EXPECT_GE(s.database_bytes(), empty + 18 * 50000);
+  EXPECT_TRUE(s.integrity_ok());
+
+  // Tampering with the R*Tree behind the store's back is noticed.
+  {
+    RawDb raw(path);
+    ASSERT_EQ(raw.exec("DELETE FROM tile_rtree WHERE id = (SELECT max(id) FROM tiles)"), "");
+  }
+  EXPECT_FALSE(s.integrity_ok());
+}
+
+}  // namespace

@@ -1,0 +1,222 @@
+// Several connections to one store file (threads, processes), and crashes in the middle of a write.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "pl/common/error.hpp"
+#include "pl/schema/store.hpp"
+#include "store_test_util.hpp"
+#include "test_util.hpp"
+
+namespace {
+
+using pl::store::Store;
+using pl::store::VersionState;
+using pl::test::count_rows;
+using pl::test::put_cell;
+
+const pl::GeoPoint kOrigin{48.137, 11.575, 519.0};
+
+class StoreConcurrencyTest : public ::testing::Test {
+ protected:
+  pl::test::TempDir dir;
+  std::string path = dir / "maps.db";
+};
+
+TEST_F(StoreConcurrencyTest, TwoConnectionsSeeEachOthersCommittedWrites) {
+  Store a = Store::open(path);
+  Store b = Store::open(path);
+  a.create_map("m", kOrigin, 10, 0.2);
+  ASSERT_TRUE(b.find_map("m"));
+  b.create_version("m", std::nullopt, "from b");
+  EXPECT_EQ(a.find_version("m", 1)->note, "from b");
+  put_cell(a, "m", 1, 0, 0, 1);
+  EXPECT_TRUE(b.find_tile("m", 1, {0, 0}));
+
+  // An open write transaction on one connection is invisible to the other until it commits,
+  // and the reader is not blocked meanwhile (WAL).
+  {
+    Store::Transaction tx(a);
+    put_cell(a, "m", 1, 1, 0, 2);
+    a.publish("m", 1);
+    EXPECT_FALSE(b.find_tile("m", 1, {1, 0}));
+    EXPECT_FALSE(b.find_map("m")->current);
+    EXPECT_EQ(b.find_version("m", 1)->state, VersionState::Staged);
+    tx.commit();
+  }
+  EXPECT_TRUE(b.find_tile("m", 1, {1, 0}));
+  EXPECT_EQ(b.find_map("m")->current, 1);
+  EXPECT_THROW(b.rollback("m"), pl::Error);  // version 1 was the first publish
+  EXPECT_EQ(a.find_map("m")->current, 1);
+}
+
+TEST_F(StoreConcurrencyTest, ThreadsWriteConcurrently) {
+  { Store s = Store::open(path); }
+  constexpr int kThreads = 4, kTiles = 40;
+  std::atomic<int> failures{0};
+  std::vector<std::string> errors(kThreads);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t) {
+    threads.emplace_back([&, t] {
+      try {
+        Store s = Store::open(path);  // one connection per thread
+        std::string map = "map" + std::to_string(t);
+        s.create_map(map, kOrigin, 10, 0.2);
+        s.create_version(map, std::nullopt, "");
+        for (int i = 0; i < kTiles; ++i) {
+          put_cell(s, map, 1, i, t, static_cast<std::uint32_t>(i % 7));  // blobs shared across threads
+          if (i % 10 == 0) s.list_maps();
+        }
+        s.publish(map, 1);
+        s.log_upload(map, 1, "publish", "", "thread");
+      } catch (const std::exception& e) {
+        errors[static_cast<std::size_t>(t)] = e.what();
+        ++failures;
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  for (const auto& e : errors) EXPECT_EQ(e, "");
+  ASSERT_EQ(failures.load(), 0);
+  Store s = Store::open(path);
+  EXPECT_EQ(s.list_maps().size(), static_cast<std::size_t>(kThreads));
+  for (int t = 0; t < kThreads; ++t) {
+    std::string map = "map" + std::to_string(t);
+    EXPECT_EQ(s.find_map(map)->current, 1);
+    EXPECT_EQ(s.list_tiles(map, 1).size(), static_cast<std::size_t>(kTiles));
+  }
+  EXPECT_EQ(count_rows(path, "blobs"), 7);
+  EXPECT_TRUE(s.integrity_ok());
+}
+
+TEST_F(StoreConcurrencyTest, ManyConnectionsOpenAFreshFileAtOnce) {
+  constexpr int kThreads = 6;
+  std::vector<std::string> errors(kThreads);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t) {
+    threads.emplace_back([&, t] {
+      try {
+        Store s = Store::open(path);
+        s.log_upload("m", std::nullopt, "hello", std::to_string(t), "");
+      } catch (const std::exception& e) {
+        errors[static_cast<std::size_t>(t)] = e.what();
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  for (const auto& e : errors) EXPECT_EQ(e, "");
+  Store s = Store::open(path);
+  EXPECT_EQ(s.schema_version(), Store::latest_schema_version());
+  EXPECT_EQ(s.upload_log("m").size(), static_cast<std::size_t>(kThreads));
+}
+
+// ---- crashes -------------------------------------------------------------------------------------
+
+enum class Death { Kill9, Exit0 };
+
+// Map "m": version 1 published with 10 tiles, version 2 staged (a copy). No connection stays open.
+void prepare_two_versions(const std::string& path) {
+  Store s = Store::open(path);
+  s.create_map("m", kOrigin, 10, 0.2);
+  s.create_version("m", std::nullopt, "v1");
+  for (int i = 0; i < 10; ++i) put_cell(s, "m", 1, i, 0, static_cast<std::uint32_t>(i));
+  s.publish("m", 1);
+  s.create_version("m", std::nullopt, "v2");
+}
+
+// In a child process: opens the store and, in one Transaction, writes many tiles into version 2
+// (enough to spill uncommitted pages into the WAL), publishes it halfway, creates version 3 and
+// writes as many tiles into it, then dies before committing (or after, with `commit`). Returns the
+// child's wait status.
+int crash_child(const std::string& path, Death death, bool commit) {
+  pid_t pid = fork();
+  if (pid == 0) {
+    try {
+      Store s = Store::open(path);
+      Store::Transaction tx(s);
+      for (int i = 0; i < 200; ++i) put_cell(s, "m", 2, i, 1, static_cast<std::uint32_t>(1000 + i), 16384);
+      s.publish("m", 2);
+      s.create_version("m", std::nullopt, "v3");  // a copy of the just published 2
+      for (int i = 0; i < 200; ++i) put_cell(s, "m", 3, i, 2, static_cast<std::uint32_t>(2000 + i), 16384);
+      if (commit) tx.commit();
+      if (death == Death::Kill9) kill(getpid(), SIGKILL);
+      _exit(0);  // no destructors: the connection is never closed, nothing is rolled back
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "crash child failed: %s\n", e.what());
+      _exit(3);
+    } catch (...) {
+      _exit(4);
+    }
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return status;
+}
+
+void expect_killed_as_asked(int status, Death death) {
+  if (death == Death::Kill9) {
+    ASSERT_TRUE(WIFSIGNALED(status)) << "child exited with " << WEXITSTATUS(status);
+    EXPECT_EQ(WTERMSIG(status), SIGKILL);
+  } else {
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0);
+  }
+}
+
+TEST_F(StoreConcurrencyTest, CrashBeforeCommitKeepsThePublishedVersion) {
+  for (Death death : {Death::Kill9, Death::Exit0}) {
+    SCOPED_TRACE(death == Death::Kill9 ? "kill -9" : "_exit(0)");
+    pl::test::TempDir d;
+    std::string p = d / "maps.db";
+    prepare_two_versions(p);
+    expect_killed_as_asked(crash_child(p, death, /*commit=*/false), death);
+    // The dead writer left uncommitted pages in the WAL (6 MB of tiles overflow SQLite's 2 MB page
+    // cache), which the next open must ignore.
+    EXPECT_GT(std::filesystem::file_size(p + "-wal"), 1'000'000u);
+
+    Store s = Store::open(p);
+    EXPECT_TRUE(s.integrity_ok());
+    EXPECT_EQ(s.find_map("m")->current, 1);
+    EXPECT_EQ(s.find_version("m", 1)->state, VersionState::Published);
+    EXPECT_EQ(s.find_version("m", 2)->state, VersionState::Staged);
+    EXPECT_EQ(s.list_tiles("m", 2).size(), 10u);
+    EXPECT_FALSE(s.find_version("m", 3));
+    EXPECT_EQ(count_rows(p, "blobs"), 10);
+    // And the store works on: the staged version can still be published.
+    put_cell(s, "m", 2, 0, 5, 5000);
+    s.publish("m", 2);
+    EXPECT_EQ(s.find_map("m")->current, 2);
+    EXPECT_TRUE(s.integrity_ok());
+  }
+}
+
+TEST_F(StoreConcurrencyTest, CrashAfterCommitKeepsTheCommit) {
+  for (Death death : {Death::Kill9, Death::Exit0}) {
+    SCOPED_TRACE(death == Death::Kill9 ? "kill -9" : "_exit(0)");
+    pl::test::TempDir d;
+    std::string p = d / "maps.db";
+    prepare_two_versions(p);
+    expect_killed_as_asked(crash_child(p, death, /*commit=*/true), death);
+
+    Store s = Store::open(p);
+    EXPECT_TRUE(s.integrity_ok());
+    EXPECT_EQ(s.find_map("m")->current, 2);
+    EXPECT_EQ(s.find_version("m", 1)->state, VersionState::Retired);
+    EXPECT_EQ(s.find_version("m", 2)->state, VersionState::Published);
+    EXPECT_EQ(s.list_tiles("m", 2).size(), 210u);
+    EXPECT_EQ(s.find_version("m", 3)->state, VersionState::Staged);
+    EXPECT_EQ(s.list_tiles("m", 3).size(), 410u);
+    EXPECT_EQ(count_rows(p, "blobs"), 410);
+  }
+}
+
+}  // namespace

@@ -1,0 +1,105 @@
+// A real pl-server process for the tests: started on a free loopback port, stopped with SIGTERM
+// (or killed with SIGKILL), its output kept.
+#pragma once
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <regex>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "test_util.hpp"
+
+namespace pl::test {
+
+class ServerProcess {
+ public:
+  // Starts `pl-server --db DB --listen 127.0.0.1:0 EXTRA...` (output to DB.log) and waits for its
+  // "listening" line.
+  ServerProcess(const std::string& db, std::vector<std::string> extra = {}) : log_(db + ".log") {
+    std::vector<std::string> args = {tool("pl-server"), "--db", db, "--listen", "127.0.0.1:0", "--threads", "2"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    int log_fd = open(log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (log_fd < 0) throw std::runtime_error("cannot write " + log_);
+    pid_ = fork();
+    if (pid_ == 0) {
+      dup2(log_fd, STDOUT_FILENO);
+      dup2(log_fd, STDERR_FILENO);
+      close(log_fd);
+      std::vector<char*> argv;
+      for (auto& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      execv(argv[0], argv.data());
+      _exit(127);
+    }
+    close(log_fd);
+    auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    std::regex re("listening on http://127\\.0\\.0\\.1:([0-9]+)");
+    while (std::chrono::steady_clock::now() < deadline) {
+      drain(200);
+      std::smatch m;
+      if (std::regex_search(output_, m, re)) {
+        port_ = std::stoi(m[1]);
+        return;
+      }
+      int status;
+      if (waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        throw std::runtime_error("pl-server exited at start: " + output_);
+      }
+    }
+    throw std::runtime_error("pl-server did not start: " + output_);
+  }
+  ~ServerProcess() {
+    if (pid_ > 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+    }
+  }
+  std::string url() const { return "http://127.0.0.1:" + std::to_string(port_); }
+  int port() const { return port_; }
+
+  // SIGTERM and wait; returns the exit code (or -signal).
+  int terminate(double timeout_s = 20.0) { return stop_with(SIGTERM, timeout_s); }
+  int kill9() { return stop_with(SIGKILL, 10.0); }
+  const std::string& output() {
+    drain(0);
+    return output_;
+  }
+
+ private:
+  int stop_with(int sig, double timeout_s) {
+    if (pid_ <= 0) return -1;
+    kill(pid_, sig);
+    auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    int status = 0;
+    while (waitpid(pid_, &status, WNOHANG) != pid_) {
+      if (std::chrono::steady_clock::now() > deadline) {
+        kill(pid_, SIGKILL);
+        waitpid(pid_, &status, 0);
+        break;
+      }
+      drain(20);
+    }
+    pid_ = -1;
+    drain(0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+  }
+  void drain(int wait_ms) {
+    if (wait_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(wait_ms));
+    output_ = read_file(log_);
+  }
+
+  std::string log_;
+  pid_t pid_ = -1;
+  int port_ = 0;
+  std::string output_;
+};
+
+}  // namespace pl::test

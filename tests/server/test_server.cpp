@@ -1,0 +1,372 @@
+// The map service end to end: pl-map writes a real SQLite store from a PCD, a real pl-server serves it
+// on 127.0.0.1, and the tests talk HTTP to it.
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+
+#include <atomic>
+#include <cmath>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <thread>
+#include <unordered_map>
+
+#include "pl/client/http_client.hpp"
+#include "pl/common/cloud_io.hpp"
+#include "pl/common/text.hpp"
+#include "pl/common/tile_codec.hpp"
+#include "pl/common/tile_key.hpp"
+#include "pl/schema/store.hpp"
+#include "server_process.hpp"
+#include "test_util.hpp"
+
+using nlohmann::json;
+using pl::client::HttpClient;
+using pl::test::ServerProcess;
+using pl::test::TempDir;
+
+namespace {
+
+const std::string kReadToken = "read-7f3a", kUploadToken = "upload-91c2", kAdminToken = "admin-5d0e";
+
+// A small town block on a 0.2 m grid: ground, two facades and a pole, spanning several 20 m tiles
+// (also on the negative side of the grid).
+pl::Points3d street_cloud() {
+  pl::Points3d pts;
+  // Ground between the facades (no voxel shared with them, so voxelizing keeps every point).
+  for (double x = -30.0; x < 50.0; x += 0.4)
+    for (double y = -5.0; y < 21.0; y += 0.4) pts.emplace_back(x + 0.1, y + 0.1, 0.02 * x);
+  for (double x = -28.0; x < 45.0; x += 0.2)
+    for (double z = 0.2; z < 8.0; z += 0.2) pts.emplace_back(x + 0.1, 22.1, z + 0.1), pts.emplace_back(x + 0.1, -6.1, z + 0.1);
+  for (double z = 0.0; z < 6.0; z += 0.2) pts.emplace_back(5.1, 5.1, z + 0.1);
+  return pts;
+}
+
+struct MapFixture {
+  TempDir dir;
+  std::string db = dir / "maps.sqlite";
+  pl::Points3d cloud = street_cloud();
+
+  MapFixture() {
+    pl::write_pcd(dir / "street.pcd", cloud, std::vector<float>(cloud.size(), 0.5f), pl::GeoPoint{49.0, 8.4, 110.0});
+    auto r = pl::test::run(pl::test::tool("pl-map") + " tile --cloud " + (dir / "street.pcd") + " --db " + db + " --map town");
+    if (r.exit_code != 0) throw std::runtime_error(r.output);
+    r = pl::test::run(pl::test::tool("pl-map") + " publish --db " + db + " --map town --version 1");
+    if (r.exit_code != 0) throw std::runtime_error(r.output);
+    pl::test::write_file(dir / "tokens.txt", "read " + kReadToken + "\nupload " + kUploadToken + "\nadmin " + kAdminToken + "\n");
+  }
+  std::vector<std::string> token_args() { return {"--tokens", dir / "tokens.txt"}; }
+};
+
+std::map<std::string, std::string> bearer(const std::string& token) { return {{"Authorization", "Bearer " + token}}; }
+
+json body_json(const pl::client::HttpResponse& r) { return json::parse(r.body); }
+
+}  // namespace
+
+TEST(Server, TilesDecodeToTheCloudWithinTheQuantizationBound) {
+  MapFixture f;
+  ServerProcess server(f.db, f.token_args());
+  HttpClient http(server.url());
+  auto manifest = http.get("/v1/maps/town");
+  ASSERT_EQ(manifest.status, 200) << manifest.body;
+  json m = body_json(manifest);
+  EXPECT_EQ(m["current_version"], 1);
+  EXPECT_DOUBLE_EQ(m["tile_size"].get<double>(), 20.0);
+  EXPECT_GT(m["tile_count"].get<int>(), 8);
+
+  auto roi = http.get("/v1/maps/town/roi?x=10&y=10&radius=100");
+  ASSERT_EQ(roi.status, 200) << roi.body;
+  json tiles = body_json(roi)["tiles"];
+  ASSERT_EQ(tiles.size(), m["tile_count"].get<std::size_t>());
+  // Every served point lies within 5 mm (per axis) of a point of the cloud, and the counts add up.
+  std::unordered_map<std::int64_t, std::vector<Eigen::Vector3d>> grid;
+  auto cell = [](const Eigen::Vector3d& p) {
+    return (static_cast<std::int64_t>(std::floor(p.x() * 5)) * 73856093) ^ (static_cast<std::int64_t>(std::floor(p.y() * 5)) * 19349663) ^
+           (static_cast<std::int64_t>(std::floor(p.z() * 5)) * 83492791);
+  };
+  for (const auto& p : f.cloud) grid[cell(p)].push_back(p);
+  std::size_t served = 0;
+  for (const auto& t : tiles) {
+    auto res = http.get(t["url"].get<std::string>());
+    ASSERT_EQ(res.status, 200);
+    EXPECT_EQ(res.header("content-type"), "application/vnd.google.draco");
+    pl::TileCloud c = pl::decode_tile(res.body);
+    EXPECT_EQ(c.size(), t["points"].get<std::size_t>());
+    EXPECT_EQ(c.normals.size(), c.size());
+    for (const auto& p : c.points) {
+      double best = 1e9;
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dz = -1; dz <= 1; ++dz) {
+            auto it = grid.find(cell(p + Eigen::Vector3d(dx, dy, dz) * 0.2));
+            if (it == grid.end()) continue;
+            for (const auto& q : it->second) best = std::min(best, (p - q).cwiseAbs().maxCoeff());
+          }
+      ASSERT_LE(best, 0.005 + 1e-9);
+    }
+    served += c.size();
+  }
+  EXPECT_EQ(served, f.cloud.size());  // the cloud sits on a 0.2 m grid: voxelizing keeps every point
+  EXPECT_EQ(server.terminate(), 0);
+}
+
+TEST(Server, EtagAndNotModified) {
+  MapFixture f;
+  ServerProcess server(f.db);
+  HttpClient http(server.url());
+  auto t = body_json(http.get("/v1/maps/town/roi?x=0&y=0&radius=1"))["tiles"][0];
+  auto first = http.get(t["url"].get<std::string>());
+  ASSERT_EQ(first.status, 200);
+  EXPECT_EQ(first.header("etag"), "\"" + t["hash"].get<std::string>() + "\"");
+  EXPECT_EQ(first.header("cache-control"), "public, max-age=31536000, immutable");
+  auto again = http.get(t["url"].get<std::string>(), {{"If-None-Match", first.header("etag")}});
+  EXPECT_EQ(again.status, 304);
+  EXPECT_TRUE(again.body.empty());
+  auto blob = http.get("/v1/blobs/" + t["hash"].get<std::string>());
+  EXPECT_EQ(blob.status, 200);
+  EXPECT_EQ(blob.body, first.body);
+  EXPECT_EQ(http.get("/v1/blobs/" + t["hash"].get<std::string>(), {{"If-None-Match", first.header("etag")}}).status, 304);
+}
+
+TEST(Server, RoiMatchesTheTilesThatTouchTheDisc) {
+  MapFixture f;
+  ServerProcess server(f.db);
+  HttpClient http(server.url());
+  json all = body_json(http.get("/v1/maps/town/versions/1/tiles"))["tiles"];
+  ASSERT_GT(all.size(), 8u);
+  pl::TileGrid grid(20.0);
+  for (double x : {-35.0, -10.0, 0.0, 19.99, 20.0, 47.0})
+    for (double y : {-15.0, 0.0, 10.0, 31.0})
+      for (double r : {0.0, 5.0, 19.0, 40.0}) {
+        std::set<std::pair<int, int>> expected, got;
+        for (const auto& t : all) {
+          pl::TileBounds b = grid.bounds_of({t["tx"].get<int>(), t["ty"].get<int>()});
+          double dx = std::max({b.min_x - x, 0.0, x - b.max_x}), dy = std::max({b.min_y - y, 0.0, y - b.max_y});
+          if (dx * dx + dy * dy <= r * r) expected.insert({t["tx"].get<int>(), t["ty"].get<int>()});
+        }
+        auto res = http.get("/v1/maps/town/roi?x=" + std::to_string(x) + "&y=" + std::to_string(y) + "&radius=" + std::to_string(r));
+        ASSERT_EQ(res.status, 200) << res.body;
+        json answer = body_json(res);
+        for (const auto& t : answer["tiles"]) got.insert({t["tx"].get<int>(), t["ty"].get<int>()});
+        EXPECT_EQ(got, expected) << "x=" << x << " y=" << y << " r=" << r;
+      }
+  // have=: only what the client lacks, and what it may drop.
+  json near = body_json(http.get("/v1/maps/town/roi?x=0&y=0&radius=5"))["tiles"];
+  json far = body_json(http.get("/v1/maps/town/roi?x=45&y=25&radius=1"))["tiles"];
+  std::string have = near[0]["hash"].get<std::string>() + "," + far[0]["hash"].get<std::string>();
+  json j = body_json(http.get("/v1/maps/town/roi?x=0&y=0&radius=5&have=" + have));
+  EXPECT_EQ(j["tiles"].size(), near.size() - 1);
+  ASSERT_EQ(j["drop"].size(), 1u);
+  EXPECT_EQ(j["drop"][0], far[0]["hash"]);
+}
+
+TEST(Server, UploadThenPublishSwitchesReadersAtomically) {
+  MapFixture f;
+  ServerProcess server(f.db, f.token_args());
+  HttpClient http(server.url());
+  json v1_tiles = body_json(http.get("/v1/maps/town/versions/1/tiles"))["tiles"];
+  // A reader polls the ROI of the whole map throughout: it must only ever see v1 or v2, whole.
+  std::atomic<bool> done{false};
+  std::atomic<int> seen_v1{0}, seen_v2{0}, torn{0};
+  std::thread reader([&] {
+    HttpClient r(server.url());
+    while (!done) {
+      json j = body_json(r.get("/v1/maps/town/roi?x=10&y=10&radius=100"));
+      int v = j["version"].get<int>();
+      std::size_t n = j["tiles"].size();
+      if (v == 1 && n == v1_tiles.size()) ++seen_v1;
+      else if (v == 2 && n == v1_tiles.size() + 1) ++seen_v2;
+      else ++torn;
+    }
+  });
+  auto opened = http.request("POST", "/v1/maps/town/versions", R"({"note": "a new tile"})", bearer(kUploadToken));
+  ASSERT_EQ(opened.status, 201) << opened.body;
+  EXPECT_EQ(body_json(opened)["version"], 2);
+  // A new tile far east, and one changed tile.
+  pl::TileCloud extra;
+  for (double x = 100.1; x < 119.0; x += 0.5)
+    for (double y = 0.1; y < 19.0; y += 0.5) extra.points.emplace_back(x, y, 0.0), extra.normals.emplace_back(0, 0, 1), extra.intensity.push_back(0.3f);
+  auto put = http.request("PUT", "/v1/maps/town/versions/2/tiles/5/0", pl::encode_tile(extra), bearer(kUploadToken));
+  ASSERT_EQ(put.status, 200) << put.body;
+  EXPECT_EQ(http.request("PUT", "/v1/maps/town/versions/2/tiles/5/0", pl::encode_tile(extra), bearer(kUploadToken)).status, 200);  // idempotent
+  // Readers do not see the staged version.
+  EXPECT_EQ(http.get("/v1/maps/town/versions/2/tiles/5/0").status, 404);
+  EXPECT_EQ(body_json(http.get("/v1/maps/town"))["current_version"], 1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  auto pub = http.request("POST", "/v1/maps/town/versions/2/publish", "", bearer(kUploadToken));
+  ASSERT_EQ(pub.status, 200) << pub.body;
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  done = true;
+  reader.join();
+  EXPECT_GT(seen_v1.load(), 0);
+  EXPECT_GT(seen_v2.load(), 0);
+  EXPECT_EQ(torn.load(), 0);
+  EXPECT_EQ(body_json(http.get("/v1/maps/town"))["current_version"], 2);
+  EXPECT_EQ(http.get("/v1/maps/town/versions/2/tiles/5/0").status, 200);
+  // A published version takes no more writes.
+  EXPECT_EQ(http.request("PUT", "/v1/maps/town/versions/2/tiles/5/0", pl::encode_tile(extra), bearer(kUploadToken)).status, 409);
+}
+
+TEST(Server, KillDuringUploadKeepsThePreviousVersion) {
+  MapFixture f;
+  {
+    ServerProcess server(f.db, f.token_args());
+    HttpClient http(server.url());
+    ASSERT_EQ(http.request("POST", "/v1/maps/town/versions", "", bearer(kUploadToken)).status, 201);
+    std::atomic<bool> stop{false};
+    std::thread uploader([&] {
+      HttpClient up(server.url(), 2.0);
+      for (int k = 0; k < 100000 && !stop; ++k) {
+        pl::TileCloud t;
+        for (int i = 0; i < 400; ++i) t.points.emplace_back(200.0 * 0 + 20.0 * (k % 50) + 0.04 * i + 0.1, 0.1 + 0.04 * i, 0.01 * k);
+        try {
+          up.request("PUT", "/v1/maps/town/versions/2/tiles/" + std::to_string(k % 50) + "/0", pl::encode_tile(t), bearer(kUploadToken));
+        } catch (...) {
+          return;  // the server is gone
+        }
+      }
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(700));
+    server.kill9();
+    stop = true;
+    uploader.join();
+  }
+  pl::store::Store store = pl::store::Store::open(f.db, false);
+  EXPECT_TRUE(store.integrity_ok());
+  auto m = store.find_map("town");
+  ASSERT_TRUE(m && m->current);
+  EXPECT_EQ(*m->current, 1);
+  ServerProcess again(f.db);
+  HttpClient http(again.url());
+  EXPECT_EQ(body_json(http.get("/v1/maps/town"))["current_version"], 1);
+  EXPECT_EQ(http.get("/v1/maps/town/versions/2/tiles/0/0").status, 404);
+}
+
+TEST(Server, BadInputGetsTheRightStatusAndAJsonError) {
+  MapFixture f;
+  ServerProcess server(f.db, f.token_args());
+  HttpClient http(server.url());
+  auto expect = [&](const pl::client::HttpResponse& r, int status, const std::string& words) {
+    EXPECT_EQ(r.status, status) << r.body;
+    json j = json::parse(r.body, nullptr, false);
+    ASSERT_FALSE(j.is_discarded()) << r.body;
+    EXPECT_EQ(j["status"], status);
+    EXPECT_NE(j["error"].get<std::string>().find(words), std::string::npos) << r.body;
+  };
+  expect(http.get("/v1/maps/town/roi?x=abc&y=0&radius=5"), 400, "x must be a number");
+  expect(http.get("/v1/maps/town/roi?y=0&radius=5"), 400, "missing query parameter x");
+  expect(http.get("/v1/maps/town/versions/zero/tiles/0/0"), 400, "version");
+  expect(http.get("/v1/maps/town/versions/1/tiles/0/x"), 400, "tile index");
+  expect(http.get("/v1/maps/nowhere"), 404, "no map named");
+  expect(http.get("/v1/maps/town/versions/9/tiles/0/0"), 404, "no version 9");
+  expect(http.get("/v1/maps/town/versions/1/tiles/300/300"), 404, "no tile 300/300");
+  expect(http.get("/v1/nothing"), 404, "no such resource");
+  expect(http.request("DELETE", "/v1/maps/town"), 405, "not allowed");
+  expect(http.request("POST", "/v1/maps/town/versions"), 401, "upload role");
+  expect(http.request("POST", "/v1/maps/town/versions", "", bearer("wrong")), 401, "unknown token");
+  expect(http.request("POST", "/v1/maps/town/versions", "", bearer(kReadToken)), 403, "needs the upload role");
+  expect(http.request("POST", "/v1/maps", R"({"name":"x","origin":{"lat":1,"lon":2}})", bearer(kUploadToken)), 403, "admin");
+  expect(http.request("POST", "/v1/maps", "{not json", bearer(kAdminToken)), 400, "expected JSON");
+  ASSERT_EQ(http.request("POST", "/v1/maps/town/versions", "", bearer(kUploadToken)).status, 201);
+  expect(http.request("PUT", "/v1/maps/town/versions/2/tiles/0/0", "this is not draco", bearer(kUploadToken)), 422, "not a valid tile");
+  pl::TileCloud off;
+  off.points.emplace_back(55.0, 5.0, 0.0);  // belongs to tile 2/0
+  expect(http.request("PUT", "/v1/maps/town/versions/2/tiles/0/0", pl::encode_tile(off), bearer(kUploadToken)), 422, "outside tile");
+  std::string huge((64u << 20) + 1, 'x');
+  auto big = http.request("PUT", "/v1/maps/town/versions/2/tiles/0/0", huge, bearer(kUploadToken));
+  EXPECT_EQ(big.status, 413);
+  // Admin creates a map; the name is taken the second time.
+  std::string make = R"({"name":"depot","origin":{"lat":49.1,"lon":8.5,"alt":100},"tile_size":25,"voxel_size":0.2})";
+  HttpClient admin(server.url());
+  EXPECT_EQ(admin.request("POST", "/v1/maps", make, bearer(kAdminToken)).status, 201);
+  expect(admin.request("POST", "/v1/maps", make, bearer(kAdminToken)), 409, "exists already");
+  // Nothing crashed: the server still answers.
+  EXPECT_EQ(HttpClient(server.url()).get("/healthz").status, 200);
+}
+
+TEST(Server, ReadTokenRequired) {
+  MapFixture f;
+  std::vector<std::string> args = f.token_args();
+  args.push_back("--read-token-required");
+  ServerProcess server(f.db, args);
+  HttpClient http(server.url());
+  EXPECT_EQ(http.get("/v1/maps/town").status, 401);
+  EXPECT_EQ(http.get("/v1/maps/town", bearer(kReadToken)).status, 200);
+  EXPECT_EQ(http.get("/healthz").status, 200);
+}
+
+TEST(Server, HealthReadinessMetricsAndAccessLog) {
+  MapFixture f;
+  ServerProcess server(f.db);
+  HttpClient http(server.url());
+  EXPECT_EQ(http.get("/healthz").body, "ok\n");
+  EXPECT_EQ(http.get("/readyz").status, 200);
+  http.get("/v1/maps/town/roi?x=0&y=0&radius=30");
+  http.get("/v1/maps/nowhere");
+  auto metrics = http.get("/metrics");
+  ASSERT_EQ(metrics.status, 200);
+  EXPECT_NE(metrics.body.find("pl_requests_total{route=\"/v1/maps/{map}/roi\",status=\"200\"} 1"), std::string::npos) << metrics.body;
+  EXPECT_NE(metrics.body.find("pl_requests_total{route=\"/v1/maps/{map}\",status=\"404\"} 1"), std::string::npos) << metrics.body;
+  EXPECT_NE(metrics.body.find("pl_request_duration_seconds_bucket{le=\"+Inf\"}"), std::string::npos);
+  EXPECT_NE(metrics.body.find("pl_open_connections 1"), std::string::npos);
+  EXPECT_NE(metrics.body.find("pl_database_bytes "), std::string::npos);
+  EXPECT_EQ(server.terminate(), 0);
+  const std::string& log = server.output();
+  EXPECT_NE(log.find("\"GET /v1/maps/town/roi?x=0&y=0&radius=30\" 200"), std::string::npos) << log;
+  EXPECT_NE(log.find("\"GET /v1/maps/nowhere\" 404"), std::string::npos) << log;
+  EXPECT_NE(log.find("pl-server: stopped"), std::string::npos) << log;
+}
+
+TEST(Server, GracefulStopFinishesTheRequestInFlight) {
+  MapFixture f;
+  ServerProcess server(f.db, f.token_args());
+  // An idle kept-alive connection does not hold the stop up.
+  HttpClient idle(server.url());
+  ASSERT_EQ(idle.get("/healthz").status, 200);
+  // A request half sent when SIGTERM arrives still gets its answer.
+  int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(server.port()));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+  std::string body = R"({"note": "in flight"})";
+  std::string head = "POST /v1/maps/town/versions HTTP/1.1\r\nHost: t\r\nAuthorization: Bearer " + kUploadToken +
+                     "\r\nContent-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body.substr(0, 5);
+  ASSERT_EQ(write(fd, head.data(), head.size()), static_cast<ssize_t>(head.size()));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  auto t0 = std::chrono::steady_clock::now();
+  std::thread stopper([&] { EXPECT_EQ(server.terminate(), 0); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  std::string rest = body.substr(5);
+  ASSERT_EQ(write(fd, rest.data(), rest.size()), static_cast<ssize_t>(rest.size()));
+  std::string answer;
+  char buf[4096];
+  ssize_t n;
+  while ((n = read(fd, buf, sizeof(buf))) > 0) answer.append(buf, static_cast<std::size_t>(n));
+  close(fd);
+  stopper.join();
+  EXPECT_EQ(answer.rfind("HTTP/1.1 201", 0), 0u) << answer;
+  EXPECT_NE(answer.find("Connection: close"), std::string::npos) << answer;
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0);
+  pl::store::Store store = pl::store::Store::open(f.db, false);
+  EXPECT_TRUE(store.find_version("town", 2).has_value());
+}
+
+TEST(Server, ServedTilesDecodeWithDebiansDracoDecoder) {
+  if (!pl::file_exists("/usr/bin/draco_decoder")) GTEST_SKIP() << "draco_decoder (package draco) is not installed";
+  MapFixture f;
+  ServerProcess server(f.db);
+  HttpClient http(server.url());
+  json t = body_json(http.get("/v1/maps/town/roi?x=5&y=5&radius=1"))["tiles"][0];
+  auto res = http.get(t["url"].get<std::string>());
+  ASSERT_EQ(res.status, 200);
+  pl::test::write_file(f.dir / "tile.drc", res.body);
+  auto r = pl::test::run("draco_decoder -i " + (f.dir / "tile.drc") + " -o " + (f.dir / "tile.ply"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::string ply = pl::test::read_file(f.dir / "tile.ply");
+  EXPECT_NE(ply.find("element vertex " + std::to_string(t["points"].get<int>())), std::string::npos) << ply.substr(0, 300);
+}
