@@ -14,3 +14,7 @@ echo "== bench_voxel: voxel grid vs pcl::VoxelGrid"
 echo
 echo "== bench_sim: simulated scans per second, one core"
 "$bin/bench_sim"
+
+echo
+echo "== bench_server: tile serving against nginx, ROI queries, tile compression"
+bash "$(dirname "$0")/bench_server.sh" "$bin" "$root/build/bench"

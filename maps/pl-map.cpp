@@ -10,6 +10,7 @@
 #include "pl/common/progress.hpp"
 #include "pl/common/text.hpp"
 #include "pl/maps/map_builder.hpp"
+#include "pl/maps/push.hpp"
 #include "pl/schema/store.hpp"
 
 namespace {
@@ -28,7 +29,9 @@ const char* kUsage =
     "  rollback --db FILE --map NAME                  make the previously published version current again\n"
     "  list     --db FILE [--map NAME]                maps, or the versions of one map\n"
     "  info     --db FILE --map NAME [--version N]    a map's manifest (default: the current version)\n"
-    "  diff     --db FILE --map NAME --from A --to B  tiles added, removed and changed between versions\n";
+    "  diff     --db FILE --map NAME --from A --to B  tiles added, removed and changed between versions\n"
+    "  push     --db FILE --map NAME --version N --server URL --token T\n"
+    "           upload a local version to a server (only the tiles it lacks), then publish it there\n";
 
 std::vector<double> parse_list(const std::string& text, std::size_t n, const std::string& flag) {
   std::vector<double> v;
@@ -147,8 +150,9 @@ int cmd_tile(const pl::Args& a) {
     if (!tiles.count(key)) removed += store.delete_tile(name, v.number, key);
   store.log_upload(name, v.number, "tile", note, "pl-map");
   tx.commit();
-  std::printf("map %s version %lld staged: %zu tiles (%zu new or changed, %zu unchanged, %zu removed), %zu points, %s\n",
-              name.c_str(), static_cast<long long>(v.number), tiles.size(), changed, unchanged, removed, pts.size(),
+  std::string parent = v.parent ? "parent v" + std::to_string(*v.parent) : "no parent";
+  std::printf("map %s version %lld staged (%s): %zu tiles (%zu new or changed, %zu unchanged, %zu removed), %zu points, %s\n",
+              name.c_str(), static_cast<long long>(v.number), parent.c_str(), tiles.size(), changed, unchanged, removed, pts.size(),
               mb(bytes).c_str());
   std::printf("publish it with: pl-map publish --db %s --map %s --version %lld\n", db.c_str(), name.c_str(),
               static_cast<long long>(v.number));
@@ -273,6 +277,22 @@ int cmd_diff(const pl::Args& a) {
   return 0;
 }
 
+int cmd_push(const pl::Args& a) {
+  pl::maps::PushOptions o;
+  o.db = a.require("--db", "FILE");
+  o.map = a.require("--map", "NAME");
+  o.version = a.get_int("--version", -1);
+  o.server = a.require("--server", "URL (e.g. http://127.0.0.1:8080)");
+  o.token = a.require("--token", "TOKEN (of the upload role; admin to create the map there)");
+  a.finish();
+  if (o.version < 1) throw pl::Error("missing --version N (the local version to push)");
+  auto r = pl::maps::push_version(o);
+  std::printf("pushed map %s v%lld to %s as v%lld: %zu tiles, %zu uploaded (%s), %zu already there, %zu deleted; published\n",
+              o.map.c_str(), static_cast<long long>(o.version), o.server.c_str(), static_cast<long long>(r.remote_version), r.tiles,
+              r.uploaded, mb(static_cast<double>(r.bytes)).c_str(), r.skipped, r.deleted);
+  return 0;
+}
+
 int body(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
     std::fputs(kUsage, argc < 2 ? stderr : stdout);
@@ -288,7 +308,8 @@ int body(int argc, char** argv) {
   if (cmd == "list") return cmd_list(args);
   if (cmd == "info") return cmd_info(args);
   if (cmd == "diff") return cmd_diff(args);
-  throw pl::Error("unknown command \"" + cmd + "\" (build, tile, publish, rollback, list, info or diff; see --help)");
+  if (cmd == "push") return cmd_push(args);
+  throw pl::Error("unknown command \"" + cmd + "\" (build, tile, publish, rollback, list, info, diff or push; see --help)");
 }
 
 }  // namespace

@@ -218,9 +218,131 @@ std::unique_ptr<draco::PointCloud> build_point_cloud(const TileCloud& cloud, con
 
 // --- decoding ---------------------------------------------------------------------------------------
 
-std::unique_ptr<draco::PointCloud> decode_point_cloud(std::string_view bytes) {
+// Draco allocates for the point and attribute counts a stream declares before it reads the data: a
+// few corrupted bytes can ask for gigabytes. So the header is walked first (the published bitstream:
+// header, metadata, point count, attribute descriptors) and streams that would decode to more than
+// max(kDecodeFloorBytes, kDecodeExpansion x their size) are refused before Draco sees them. Real
+// tiles expand about 6x (28 bytes a point from 4 to 5); only clouds made mostly of duplicates or of
+// exact lattice points compress further, and encode_tile refuses to write what this would refuse.
+constexpr std::size_t kDecodeFloorBytes = std::size_t{32} << 20;
+constexpr std::size_t kDecodeExpansion = 64;
+constexpr int32_t kMaxPoints = int32_t{1} << 24;
+constexpr int kMaxMetadataDepth = 16;
+
+class Reader {
+ public:
+  explicit Reader(std::string_view bytes) : bytes_(bytes) {}
+  std::size_t remaining() const { return bytes_.size() - pos_; }
+  bool skip(std::size_t n) {
+    if (remaining() < n) return false;
+    pos_ += n;
+    return true;
+  }
+  template <typename T>
+  bool read(T& value) {  // little-endian, as Draco writes and reads it on the machines we run on
+    if (remaining() < sizeof(T)) return false;
+    std::memcpy(&value, bytes_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return true;
+  }
+  // Draco's unsigned varint: 7 bits a byte, low bits first, at most 5 bytes for 32 bits.
+  bool varint(uint32_t& value) {
+    value = 0;
+    for (int i = 0; i < 5; ++i) {
+      uint8_t byte = 0;
+      if (!read(byte)) return false;
+      value |= static_cast<uint32_t>(byte & 0x7f) << (7 * i);
+      if (!(byte & 0x80)) return true;
+    }
+    return false;
+  }
+
+ private:
+  std::string_view bytes_;
+  std::size_t pos_ = 0;
+};
+
+bool skip_metadata(Reader& r, int depth) {
+  if (depth > kMaxMetadataDepth) return false;
+  uint32_t entries = 0;
+  if (!r.varint(entries)) return false;
+  for (uint32_t i = 0; i < entries; ++i) {
+    uint8_t name_length = 0;
+    uint32_t size = 0;
+    if (!r.read(name_length) || !r.skip(name_length) || !r.varint(size) || size == 0 || !r.skip(size)) return false;
+  }
+  uint32_t children = 0;
+  if (!r.varint(children)) return false;
+  for (uint32_t i = 0; i < children; ++i) {
+    uint8_t name_length = 0;
+    if (!r.read(name_length) || !r.skip(name_length) || !skip_metadata(r, depth + 1)) return false;
+  }
+  return true;
+}
+
+// Walks the stream up to the attribute descriptors and refuses it when it is not a Draco point
+// cloud this build reads or when it would decode to more than the budget allows.
+void check_stream(std::string_view bytes) {
   if (bytes.empty()) invalid("no bytes");
-  if (bytes.size() < 5 || std::memcmp(bytes.data(), "DRACO", 5) != 0) invalid("no DRACO header");
+  Reader r(bytes);
+  char magic[5];
+  uint8_t major = 0, minor = 0, geometry = 0, method = 0;
+  uint16_t flags = 0;
+  if (!r.read(magic) || std::memcmp(magic, "DRACO", 5) != 0) invalid("no DRACO header");
+  if (!r.read(major) || !r.read(minor) || !r.read(geometry) || !r.read(method) || !r.read(flags))
+    invalid("truncated header");
+  if (geometry != draco::POINT_CLOUD) invalid("geometry type " + std::to_string(geometry) + " is not a point cloud");
+  if (method != draco::POINT_CLOUD_SEQUENTIAL_ENCODING && method != draco::POINT_CLOUD_KD_TREE_ENCODING)
+    invalid("unknown encoding method " + std::to_string(method));
+  const auto version = [](int ma, int mi) { return ma * 256 + mi; };
+  const int v = version(major, minor);
+  if (major < 1 || v > version(draco::kDracoPointCloudBitstreamVersionMajor, draco::kDracoPointCloudBitstreamVersionMinor))
+    invalid("unsupported bitstream version " + std::to_string(major) + "." + std::to_string(minor));
+  if (v >= version(1, 3) && (flags & METADATA_FLAG_MASK)) {
+    uint32_t attribute_metadata = 0;
+    if (!r.varint(attribute_metadata)) invalid("truncated metadata");
+    for (uint32_t i = 0; i < attribute_metadata; ++i) {
+      uint32_t unique_id = 0;
+      if (!r.varint(unique_id) || !skip_metadata(r, 1)) invalid("malformed metadata");
+    }
+    if (!skip_metadata(r, 1)) invalid("malformed metadata");
+  }
+  int32_t points = 0;
+  if (!r.read(points)) invalid("truncated before the point count");
+  if (points < 0 || points > kMaxPoints)
+    invalid("point count " + std::to_string(points) + " is out of range (at most " + std::to_string(kMaxPoints) + ")");
+  uint8_t decoders = 0;
+  if (!r.read(decoders)) invalid("truncated before the attributes");
+  std::size_t decoded_bytes = 0;
+  for (int d = 0; d < decoders; ++d) {
+    uint32_t attributes = 0;
+    const bool ok = v < version(2, 0) ? r.read(attributes) : r.varint(attributes);
+    if (!ok) invalid("truncated attribute list");
+    if (attributes == 0 || attributes > r.remaining() / 5) invalid("attribute count " + std::to_string(attributes) + " does not fit the stream");
+    for (uint32_t a = 0; a < attributes; ++a) {
+      uint8_t type = 0, data_type = 0, components = 0, normalized = 0;
+      uint32_t unique_id = 0;
+      uint16_t old_id = 0;
+      if (!r.read(type) || !r.read(data_type) || !r.read(components) || !r.read(normalized) ||
+          !(v < version(1, 3) ? r.read(old_id) : r.varint(unique_id)))
+        invalid("truncated attribute descriptor");
+      if (data_type <= draco::DT_INVALID || data_type >= draco::DT_TYPES_COUNT)
+        invalid("attribute data type " + std::to_string(data_type) + " is unknown");
+      if (components == 0) invalid("attribute with no components");
+      decoded_bytes += static_cast<std::size_t>(points) * components *
+                       static_cast<std::size_t>(draco::DataTypeLength(static_cast<draco::DataType>(data_type)));
+    }
+    if (method == draco::POINT_CLOUD_SEQUENTIAL_ENCODING && !r.skip(attributes))
+      invalid("truncated attribute decoder list");
+  }
+  const std::size_t budget = std::max(kDecodeFloorBytes, kDecodeExpansion * bytes.size());
+  if (decoded_bytes > budget)
+    invalid(std::to_string(points) + " points would decode to " + std::to_string(decoded_bytes) + " bytes from " +
+            std::to_string(bytes.size()) + " (more than " + std::to_string(budget) + " is refused)");
+}
+
+std::unique_ptr<draco::PointCloud> decode_point_cloud(std::string_view bytes) {
+  check_stream(bytes);
   draco::DecoderBuffer buffer;
   buffer.Init(bytes.data(), bytes.size());
   draco::Decoder decoder;
@@ -310,8 +432,11 @@ std::string encode_tile(const TileCloud& cloud, const TileCodecConfig& cfg) {
   Attributes atts;
   const std::unique_ptr<draco::PointCloud> pc = build_point_cloud(cloud, normals, q, order, atts);
 
-  std::vector<int> methods = {draco::POINT_CLOUD_SEQUENTIAL_ENCODING};
-  if (cfg.speed < 10 && !cloud.points.empty()) methods.push_back(draco::POINT_CLOUD_KD_TREE_ENCODING);
+  // Both coders unless speed 10 asks for the fast one; an empty cloud only decodes from the k-d tree
+  // coder (Draco's sequential decoder refuses zero quantized points).
+  std::vector<int> methods;
+  if (!cloud.points.empty()) methods.push_back(draco::POINT_CLOUD_SEQUENTIAL_ENCODING);
+  if (cloud.points.empty() || cfg.speed < 10) methods.push_back(draco::POINT_CLOUD_KD_TREE_ENCODING);
   std::string best, errors;
   for (int method : methods) {
     draco::ExpertEncoder encoder(*pc);
@@ -329,6 +454,12 @@ std::string encode_tile(const TileCloud& cloud, const TileCodecConfig& cfg) {
     if (best.empty() || buffer.size() < best.size()) best.assign(buffer.data(), buffer.size());
   }
   if (best.empty()) throw Error("tile codec: Draco could not encode the tile: " + errors);
+  try {
+    check_stream(best);
+  } catch (const Error& e) {
+    throw Error(std::string("tile codec: the encoded tile would be refused on decoding (") + e.what() +
+                "); are most of its points duplicates?");
+  }
   return best;
 }
 

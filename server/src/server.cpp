@@ -155,18 +155,11 @@ struct Server::Impl {
       send(r, 11, false, method, target);
     }
 
-    void send(const ApiResponse& r, unsigned version, bool keep, const std::string& method, const std::string& target) {
-      auto res = std::make_shared<http::response<http::string_body>>(static_cast<http::status>(r.status), version);
-      res->set(http::field::server, "pl-server");
-      if (!r.content_type.empty()) res->set(http::field::content_type, r.content_type);
-      for (const auto& [k, v] : r.headers) res->set(k, v);
+    void send(ApiResponse& r, unsigned version, bool keep, const std::string& method, const std::string& target) {
       bool head = method == "HEAD";
-      res->body() = head ? std::string() : r.body;
-      res->keep_alive(keep);
-      res->prepare_payload();
-      if (head) res->content_length(r.body.size());
+      std::size_t size = r.blob ? r.blob->size() : r.body.size();
       double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-      std::size_t bytes = head ? 0 : r.body.size();
+      std::size_t bytes = head ? 0 : size;
       server_.metrics.observe(r.route.empty() ? "other" : r.route, r.status, seconds, bytes);
       if (server_.cfg.access_log) {
         std::lock_guard<std::mutex> lock(log_mutex);
@@ -174,10 +167,37 @@ struct Server::Impl {
                      r.status, bytes, seconds * 1000.0);
         std::fflush(stdout);
       }
+      auto fill = [&](auto& res) {
+        res.set(http::field::server, "pl-server");
+        if (!r.content_type.empty()) res.set(http::field::content_type, r.content_type);
+        for (const auto& [k, v] : r.headers) res.set(k, v);
+        res.keep_alive(keep);
+      };
+      if (r.blob && !head) {
+        // Tile bytes go out straight from the cache: the session holds them until written.
+        held_ = r.blob;
+        auto res = std::make_shared<http::response<http::span_body<const char>>>(static_cast<http::status>(r.status), version);
+        fill(*res);
+        res->body() = http::span_body<const char>::value_type(held_->data(), held_->size());
+        res->prepare_payload();
+        write(res, keep);
+      } else {
+        auto res = std::make_shared<http::response<http::string_body>>(static_cast<http::status>(r.status), version);
+        fill(*res);
+        if (!head) res->body() = std::move(r.body);
+        res->prepare_payload();
+        if (head) res->content_length(size);
+        write(res, keep);
+      }
+    }
+
+    template <typename Response>
+    void write(std::shared_ptr<Response> res, bool keep) {
       response_ = res;
       stream_.expires_after(ms(server_.cfg.read_timeout_s));
       http::async_write(stream_, *res, [self = shared_from_this(), keep](beast::error_code ec, std::size_t) {
         self->response_.reset();
+        self->held_.reset();
         if (!ec && self->linger_) return self->linger();
         if (ec || !keep) return self->close();
         self->read();
@@ -211,6 +231,7 @@ struct Server::Impl {
     beast::flat_buffer buffer_;
     std::optional<http::request_parser<http::string_body>> parser_;
     std::shared_ptr<void> response_;
+    std::shared_ptr<const std::string> held_;
     Impl& server_;
     std::string remote_;
     bool first_ = true;
@@ -238,6 +259,8 @@ struct Server::Impl {
         net::write(socket, net::buffer(busy), wec);
         socket.shutdown(tcp::socket::shutdown_both, wec);
       } else {
+        beast::error_code oec;
+        socket.set_option(tcp::no_delay(true), oec);  // request/response: no Nagle delay
         std::make_shared<Session>(std::move(socket), *this)->start();
       }
       if (!stopping) accept();

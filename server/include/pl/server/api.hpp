@@ -29,12 +29,14 @@ struct ApiRequest {
 struct ApiResponse {
   int status = 200;
   std::string body;
+  std::shared_ptr<const std::string> blob;  // when set, the body: tile bytes shared with the cache, not copied
   std::string content_type = "application/json";
   std::vector<std::pair<std::string, std::string>> headers;
   std::string route;  // the route template, for metrics ("/v1/maps/{map}/roi")
 };
 
 // Prometheus metrics: requests by route and status, latency histogram, bytes served, connections.
+// Lock-free counters: a fixed table of the API's routes and the statuses it answers with.
 class Metrics {
  public:
   void observe(const std::string& route, int status, double seconds, std::size_t bytes);
@@ -42,13 +44,17 @@ class Metrics {
   std::string render(std::int64_t database_bytes) const;
 
  private:
+  static constexpr const char* kRoutes[] = {"/healthz", "/readyz", "/metrics", "/v1/maps", "/v1/maps/{map}", "/v1/maps/{map}/roi",
+                                            "/v1/maps/{map}/versions", "/v1/maps/{map}/versions/{v}/tiles",
+                                            "/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}", "/v1/maps/{map}/versions/{v}/publish",
+                                            "/v1/blobs/{hash}", "other"};
+  static constexpr int kStatuses[] = {200, 201, 304, 400, 401, 403, 404, 405, 409, 413, 422, 431, 500, 503, 0};  // 0: any other
   static constexpr double kBuckets[] = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 1.0};
-  mutable std::mutex mutex_;
-  std::map<std::pair<std::string, int>, std::uint64_t> requests_;
-  std::uint64_t buckets_[sizeof(kBuckets) / sizeof(double) + 1] = {};
-  double latency_sum_ = 0.0;
-  std::uint64_t latency_count_ = 0;
-  std::uint64_t bytes_ = 0;
+  static constexpr std::size_t kNRoutes = sizeof(kRoutes) / sizeof(kRoutes[0]), kNStatuses = sizeof(kStatuses) / sizeof(int),
+                               kNBuckets = sizeof(kBuckets) / sizeof(double) + 1;
+  std::atomic<std::uint64_t> requests_[kNRoutes][kNStatuses] = {};
+  std::atomic<std::uint64_t> buckets_[kNBuckets] = {};
+  std::atomic<std::uint64_t> latency_ns_{0}, latency_count_{0}, bytes_{0};
 };
 
 class Api {

@@ -1,0 +1,87 @@
+#!/usr/bin/env bash
+# The map service under load, measured against nginx serving the very same tile bytes as static
+# files, in the same run: wrk with 64 keep-alive connections on one thread (the other core serves), 10 s each.
+#   bench/bench_server.sh BIN_DIR WORK_DIR
+set -euo pipefail
+bin=${1:?usage: bench_server.sh BIN_DIR WORK_DIR}
+work=${2:?usage: bench_server.sh BIN_DIR WORK_DIR}
+mkdir -p "$work"
+work=$(cd "$work" && pwd)
+for tool in nginx wrk curl; do
+  command -v "$tool" >/dev/null || { echo "bench_server: $tool is missing (apt-get install nginx-light wrk curl)"; exit 0; }
+done
+
+# A map: one lap of the town loop, 64 beams, merged at the ground-truth poses, 0.2 m voxels.
+if [[ ! -f "$work/maps.sqlite" ]]; then
+  "$bin/pl-sim" --route loop --out "$work/loop" --force >/dev/null
+  "$bin/pl-map" build --dataset "$work/loop" --poses gt --out "$work/loop.pcd" >/dev/null
+  "$bin/pl-map" tile --cloud "$work/loop.pcd" --db "$work/maps.sqlite.partial" --map town >/dev/null
+  "$bin/pl-map" publish --db "$work/maps.sqlite.partial" --map town --version 1 >/dev/null
+  mv "$work/maps.sqlite.partial" "$work/maps.sqlite"
+fi
+"$bin/bench_tiles" "$work/maps.sqlite" town
+
+port_ours=18481
+port_nginx=18482
+"$bin/pl-server" --db "$work/maps.sqlite" --listen 127.0.0.1:$port_ours --threads 2 --quiet >"$work/server.log" 2>&1 &
+server=$!
+trap 'kill $server 2>/dev/null; [[ -f $work/nginx.pid ]] && kill $(cat $work/nginx.pid) 2>/dev/null; true' EXIT
+for _ in $(seq 50); do curl -sf "http://127.0.0.1:$port_ours/healthz" >/dev/null && break; sleep 0.1; done
+
+# The same bytes as static files under the same paths, for nginx.
+rm -rf "$work/www"
+curl -sf "http://127.0.0.1:$port_ours/v1/maps/town/roi?x=100&y=50&radius=2000" |
+  python3 -c 'import json,sys; [print(t["url"]) for t in json.load(sys.stdin)["tiles"]]' >"$work/paths.txt"
+while read -r p; do
+  mkdir -p "$work/www$(dirname "$p")"
+  curl -sf "http://127.0.0.1:$port_ours$p" -o "$work/www$p"
+done <"$work/paths.txt"
+cat >"$work/nginx.conf" <<CONF
+worker_processes 2;
+pid $work/nginx.pid;
+error_log $work/nginx-error.log;
+events { worker_connections 1024; }
+http {
+  access_log off;
+  sendfile on;
+  tcp_nopush on;
+  keepalive_requests 1000000;
+  default_type application/octet-stream;
+  server { listen 127.0.0.1:$port_nginx; root $work/www; }
+}
+CONF
+nginx -c "$work/nginx.conf" -p "$work"
+sleep 0.3
+
+# wrk walks the tile paths round robin.
+{
+  echo "paths = {"
+  sed 's/.*/  "&",/' "$work/paths.txt"
+  echo "}"
+  echo 'i = 0'
+  echo 'request = function() i = (i % #paths) + 1; return wrk.format("GET", paths[i]) end'
+} >"$work/tiles.lua"
+# ROI queries at points along the loop, with the client's current tiles unknown (worst case).
+python3 - "$work/roi.lua" <<'PY'
+import math, sys
+pts = [(x, 0) for x in range(0, 210, 15)] + [(210, y) for y in range(0, 105, 15)] + [(x, 90) for x in range(0, 210, 15)]
+with open(sys.argv[1], "w") as f:
+    f.write("paths = {\n" + "".join('  "/v1/maps/town/roi?x=%d&y=%d&radius=60",\n' % p for p in pts) + "}\n")
+    f.write('i = 0\nrequest = function() i = (i % #paths) + 1; return wrk.format("GET", paths[i]) end\n')
+PY
+
+run_wrk() {  # URL SCRIPT -> "requests/s p99_ms"
+  wrk -t1 -c64 -d10s --latency -s "$2" "$1" 2>&1 | awk '
+    /Requests\/sec/ {rps=$2}
+    / 99%/ {v=$2; if (v ~ /us$/) {sub(/us/,"",v); v=v/1000} else if (v ~ /ms$/) {sub(/ms/,"",v)} else if (v ~ /s$/) {sub(/s/,"",v); v=v*1000}; p99=v}
+    END {printf "%s %s\n", rps, p99}'
+}
+read -r ours_rps ours_p99 < <(run_wrk "http://127.0.0.1:$port_ours" "$work/tiles.lua")
+read -r nginx_rps nginx_p99 < <(run_wrk "http://127.0.0.1:$port_nginx" "$work/tiles.lua")
+read -r roi_rps roi_p99 < <(run_wrk "http://127.0.0.1:$port_ours" "$work/roi.lua")
+tiles=$(wc -l <"$work/paths.txt")
+echo "tile GET, $tiles distinct tiles round robin, wrk -t1 -c64 -d10s (keep-alive), 2 server threads, same machine:"
+printf '  pl-server  %10.0f requests/s  p99 %6.2f ms\n' "$ours_rps" "$ours_p99"
+printf '  nginx      %10.0f requests/s  p99 %6.2f ms (static files of the same bytes)\n' "$nginx_rps" "$nginx_p99"
+python3 -c "print('  pl-server / nginx = %.2fx (target >= 0.8x), p99 target <= 5 ms' % ($ours_rps / $nginx_rps))"
+printf 'ROI queries (60 m radius, 36 places on the loop): %.0f requests/s, p99 %.2f ms\n' "$roi_rps" "$roi_p99"

@@ -1,0 +1,93 @@
+#include "pl/maps/push.hpp"
+
+#include <cmath>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "pl/client/http_client.hpp"
+#include "pl/common/error.hpp"
+#include "pl/common/progress.hpp"
+#include "pl/schema/store.hpp"
+
+using nlohmann::json;
+
+namespace pl::maps {
+
+namespace {
+
+json expect(const client::HttpResponse& r, std::initializer_list<int> ok, const std::string& what) {
+  for (int s : ok)
+    if (r.status == s) return r.body.empty() ? json() : json::parse(r.body, nullptr, false);
+  std::string why = r.body;
+  json j = json::parse(r.body, nullptr, false);
+  if (!j.is_discarded() && j.contains("error")) why = j["error"].get<std::string>();
+  throw Error(what + ": the server answered " + std::to_string(r.status) + ": " + why);
+}
+
+}  // namespace
+
+PushReport push_version(const PushOptions& o) {
+  auto store = store::Store::open(o.db, false);
+  auto map = store.find_map(o.map);
+  if (!map) throw Error(o.db + ": no map named \"" + o.map + "\"");
+  auto version = store.find_version(o.map, o.version);
+  if (!version) throw Error(o.db + ": map " + o.map + " has no version " + std::to_string(o.version));
+  auto tiles = store.list_tiles(o.map, o.version);
+
+  client::HttpClient http(o.server, 60.0);
+  std::map<std::string, std::string> auth = {{"Authorization", "Bearer " + o.token}};
+  const std::string base = "/v1/maps/" + client::url_encode(o.map);
+  auto manifest = http.get(base, auth);
+  if (manifest.status == 404) {
+    json create = {{"name", o.map},
+                   {"origin", {{"lat", map->origin.lat_deg}, {"lon", map->origin.lon_deg}, {"alt", map->origin.alt_m}}},
+                   {"tile_size", map->tile_size},
+                   {"voxel_size", map->voxel_size}};
+    expect(http.request("POST", "/v1/maps", create.dump(), auth), {201}, "creating map " + o.map + " on " + o.server);
+    manifest = http.get(base, auth);
+  }
+  json m = expect(manifest, {200}, "reading map " + o.map + " on " + o.server);
+  if (std::abs(m["tile_size"].get<double>() - map->tile_size) > 1e-9 || std::abs(m["voxel_size"].get<double>() - map->voxel_size) > 1e-9 ||
+      std::abs(m["origin"]["lat"].get<double>() - map->origin.lat_deg) > 1e-9 ||
+      std::abs(m["origin"]["lon"].get<double>() - map->origin.lon_deg) > 1e-9)
+    throw Error("map " + o.map + " on " + o.server + " has another origin, tile size or voxel size than the local one: not pushing");
+
+  json note = {{"note", "pushed from " + o.db + " v" + std::to_string(o.version)}};
+  json opened = expect(http.request("POST", base + "/versions", note.dump(), auth), {201}, "opening a version of " + o.map);
+  PushReport r;
+  r.remote_version = opened["version"].get<std::int64_t>();
+  const std::string vbase = base + "/versions/" + std::to_string(r.remote_version);
+  json remote = expect(http.get(vbase + "/tiles", auth), {200}, "listing the tiles of the new version");
+  std::map<TileKey, std::string> have;
+  for (const auto& t : remote["tiles"]) have[{t["tx"].get<int>(), t["ty"].get<int>()}] = t["hash"].get<std::string>();
+
+  Progress bar("pushing tiles", tiles.size());
+  std::map<TileKey, bool> local;
+  for (const auto& t : tiles) {
+    local[t.key] = true;
+    ++r.tiles;
+    auto it = have.find(t.key);
+    if (it != have.end() && it->second == t.hash) {
+      ++r.skipped;
+    } else {
+      auto bytes = store.blob(t.hash);
+      if (!bytes) throw Error(o.db + ": the bytes of tile " + std::to_string(t.key.tx) + "/" + std::to_string(t.key.ty) + " are missing");
+      expect(http.request("PUT", vbase + "/tiles/" + std::to_string(t.key.tx) + "/" + std::to_string(t.key.ty), *bytes, auth), {200},
+             "uploading tile " + std::to_string(t.key.tx) + "/" + std::to_string(t.key.ty));
+      ++r.uploaded;
+      r.bytes += bytes->size();
+    }
+    bar.update(r.tiles);
+  }
+  bar.finish();
+  for (const auto& [key, hash] : have)
+    if (!local.count(key)) {
+      expect(http.request("DELETE", vbase + "/tiles/" + std::to_string(key.tx) + "/" + std::to_string(key.ty), "", auth), {200},
+             "deleting tile " + std::to_string(key.tx) + "/" + std::to_string(key.ty));
+      ++r.deleted;
+    }
+  expect(http.request("POST", vbase + "/publish", "", auth), {200}, "publishing version " + std::to_string(r.remote_version));
+  return r;
+}
+
+}  // namespace pl::maps

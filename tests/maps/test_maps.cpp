@@ -1,0 +1,155 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <regex>
+
+#include "pl/common/cloud_io.hpp"
+#include "pl/common/error.hpp"
+#include "pl/maps/map_builder.hpp"
+#include "pl/schema/store.hpp"
+#include "server_process.hpp"
+#include "test_util.hpp"
+
+using pl::test::TempDir;
+
+namespace {
+std::string pl_map(const std::string& args) { return pl::test::tool("pl-map") + " " + args; }
+}  // namespace
+
+TEST(Maps, VoxelAccumulatorAveragesOverAllScans) {
+  pl::maps::VoxelAccumulator acc(0.5);
+  acc.add({0.1, 0.1, 0.1}, 1.0f);
+  acc.add({0.3, 0.3, 0.3}, 3.0f);  // same voxel, a later "scan"
+  acc.add({0.3, 0.3, 0.3}, 3.0f);
+  acc.add({-0.1, 0.1, 0.1}, 5.0f);
+  std::vector<float> intensity;
+  auto c = acc.centroids(intensity);
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_TRUE(c[0].isApprox(Eigen::Vector3d(0.7 / 3, 0.7 / 3, 0.7 / 3)));  // exact mean, not a mean of means
+  EXPECT_FLOAT_EQ(intensity[0], 7.0f / 3);
+  EXPECT_FLOAT_EQ(intensity[1], 5.0f);
+}
+
+TEST(Maps, NormalsOfPlanesFarFromTheOrigin) {
+  pl::Points3d pts;
+  Eigen::Vector3d offset(3500.0, -2200.0, 80.0);
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j) {
+      pts.push_back(offset + Eigen::Vector3d(0.2 * i, 0.2 * j, 0.0));                 // ground
+      pts.push_back(offset + Eigen::Vector3d(0.2 * i, 10.0, 0.2 * j + 0.5));          // a wall facing y
+    }
+  std::vector<float> planarity;
+  auto n = pl::maps::estimate_normals(pts, 0.6, &planarity);
+  for (std::size_t k = 0; k < pts.size(); k += 2) {
+    EXPECT_NEAR(n[k].z(), 1.0f, 1e-4f) << k;  // oriented up
+    EXPECT_NEAR(std::abs(n[k + 1].y()), 1.0f, 1e-4f) << k;
+    EXPECT_GT(planarity[k], 0.99f);
+  }
+  pl::Points3d lonely = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(5, 5, 5)};
+  EXPECT_EQ(pl::maps::estimate_normals(lonely, 0.6)[0], Eigen::Vector3f::UnitZ());
+}
+
+TEST(Maps, CutIntoTilesKeepsEveryPointInItsHalfOpenTile) {
+  pl::Points3d pts = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(19.999, 5, 0), Eigen::Vector3d(20, 5, 0), Eigen::Vector3d(-0.001, -3, 0)};
+  auto tiles = pl::maps::cut_into_tiles(pts, {}, {}, pl::TileGrid(20.0));
+  ASSERT_EQ(tiles.size(), 3u);
+  EXPECT_EQ(tiles.at({0, 0}).size(), 2u);
+  EXPECT_EQ(tiles.at({1, 0}).size(), 1u);
+  EXPECT_EQ(tiles.at({-1, -1}).size(), 1u);
+}
+
+TEST(Maps, BuildTileVersionsDiffRollbackFromTheCommandLine) {
+  TempDir dir;
+  // A drive to build from: a few VLP-16 scans of the town loop.
+  auto sim = pl::test::run(pl::test::tool("pl-sim") + " --route loop --frames 6 --lidar vlp16 --out " + (dir / "drive"));
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  auto build = pl::test::run(pl_map("build --dataset " + (dir / "drive") + " --poses gt --out " + (dir / "map.pcd")));
+  ASSERT_EQ(build.exit_code, 0) << build.output;
+  pl::Cloud map = pl::read_cloud(dir / "map.pcd");
+  ASSERT_GT(map.size(), 10000u);
+  ASSERT_TRUE(map.origin.has_value());
+  std::string db = dir / "maps.sqlite";
+  auto tile = pl::test::run(pl_map("tile --cloud " + (dir / "map.pcd") + " --db " + db + " --map loop"));
+  ASSERT_EQ(tile.exit_code, 0) << tile.output;
+  EXPECT_NE(tile.output.find("version 1 staged (no parent)"), std::string::npos) << tile.output;
+  // Published, then the same cloud again: every tile unchanged against its parent, stored once.
+  EXPECT_EQ(pl::test::run(pl_map("publish --db " + db + " --map loop --version 1")).exit_code, 0);
+  auto again = pl::test::run(pl_map("tile --cloud " + (dir / "map.pcd") + " --db " + db + " --map loop"));
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("version 2 staged (parent v1)"), std::string::npos) << again.output;
+  EXPECT_NE(again.output.find("(0 new or changed"), std::string::npos) << again.output;
+  {
+    auto store = pl::store::Store::open(db, false);
+    auto t1 = store.list_tiles("loop", 1), t2 = store.list_tiles("loop", 2);
+    ASSERT_EQ(t1.size(), t2.size());
+    for (std::size_t i = 0; i < t1.size(); ++i) EXPECT_EQ(t1[i].hash, t2[i].hash);
+  }
+  EXPECT_EQ(pl::test::run(pl_map("publish --db " + db + " --map loop --version 2")).exit_code, 0);
+  auto list = pl::test::run(pl_map("list --db " + db + " --map loop"));
+  EXPECT_NE(list.output.find("* v2"), std::string::npos) << list.output;
+  EXPECT_NE(list.output.find("retired"), std::string::npos) << list.output;
+  auto info = pl::test::run(pl_map("info --db " + db + " --map loop"));
+  EXPECT_NE(info.output.find("version      2 (published), current"), std::string::npos) << info.output;
+  EXPECT_NE(info.output.find("MB per km2"), std::string::npos) << info.output;
+  auto diff = pl::test::run(pl_map("diff --db " + db + " --map loop --from 1 --to 2"));
+  EXPECT_NE(diff.output.find("0 added, 0 removed, 0 changed"), std::string::npos) << diff.output;
+  auto rb = pl::test::run(pl_map("rollback --db " + db + " --map loop"));
+  EXPECT_NE(rb.output.find("version 1 is current"), std::string::npos) << rb.output;
+  // Bad input says what to do and changes nothing.
+  auto wrong = pl::test::run(pl_map("tile --cloud " + (dir / "map.pcd") + " --db " + db + " --map loop --tile-size 25"));
+  EXPECT_EQ(wrong.exit_code, 2);
+  EXPECT_NE(wrong.output.find("--tile-size 20"), std::string::npos) << wrong.output;
+  pl::write_pcd(dir / "bare.pcd", {Eigen::Vector3d(1, 2, 3)}, {});
+  auto bare = pl::test::run(pl_map("tile --cloud " + (dir / "bare.pcd") + " --db " + db + " --map other"));
+  EXPECT_NE(bare.output.find("--origin LAT,LON,ALT"), std::string::npos) << bare.output;
+  auto pub = pl::test::run(pl_map("publish --db " + db + " --map loop --version 1"));
+  EXPECT_EQ(pub.exit_code, 2) << pub.output;
+  EXPECT_EQ(pl::store::Store::open(db, false).find_map("loop")->current.value(), 1);
+}
+
+TEST(Maps, PushUploadsOnlyWhatTheServerLacks) {
+  TempDir dir;
+  pl::Points3d pts;
+  for (double x = 0.1; x < 60; x += 0.4)
+    for (double y = 0.1; y < 40; y += 0.4) pts.emplace_back(x, y, 0.05 * std::sin(x));
+  pl::write_pcd(dir / "a.pcd", pts, {}, pl::GeoPoint{49.0, 8.4, 100.0});
+  std::string local = dir / "local.sqlite", remote = dir / "remote.sqlite";
+  ASSERT_EQ(pl::test::run(pl_map("tile --cloud " + (dir / "a.pcd") + " --db " + local + " --map m")).exit_code, 0);
+  // The server's store exists (with the tokens) but has no map yet.
+  { auto s = pl::store::Store::open(remote); }
+  pl::test::write_file(dir / "tokens.txt", "admin adm-1\nupload up-1\n");
+  pl::test::ServerProcess server(remote, {"--tokens", dir / "tokens.txt"});
+  auto up = pl::test::run(pl_map("push --db " + local + " --map m --version 1 --server " + server.url() + " --token up-1"));
+  EXPECT_EQ(up.exit_code, 2);  // creating the map needs the admin role
+  EXPECT_NE(up.output.find("403"), std::string::npos) << up.output;
+  auto first = pl::test::run(pl_map("push --db " + local + " --map m --version 1 --server " + server.url() + " --token adm-1"));
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  std::smatch m;
+  std::regex re("([0-9]+) tiles, ([0-9]+) uploaded");
+  ASSERT_TRUE(std::regex_search(first.output, m, re)) << first.output;
+  EXPECT_EQ(m[1], m[2]);
+  // Change one corner of the cloud: a second push uploads that tile only.
+  for (auto& p : pts)
+    if (p.x() < 20 && p.y() < 20) p.z() += 0.5;
+  pl::write_pcd(dir / "b.pcd", pts, {}, pl::GeoPoint{49.0, 8.4, 100.0});
+  ASSERT_EQ(pl::test::run(pl_map("tile --cloud " + (dir / "b.pcd") + " --db " + local + " --map m")).exit_code, 0);
+  // The corner tile changes, and so do its neighbours' normals along the seam; nothing else.
+  std::size_t changed = 0;
+  {
+    auto s = pl::store::Store::open(local, false);
+    auto t1 = s.list_tiles("m", 1), t2 = s.list_tiles("m", 2);
+    ASSERT_EQ(t1.size(), t2.size());
+    for (std::size_t i = 0; i < t1.size(); ++i) changed += t1[i].hash != t2[i].hash;
+  }
+  ASSERT_GE(changed, 1u);
+  ASSERT_LT(changed, 6u);
+  auto second = pl::test::run(pl_map("push --db " + local + " --map m --version 2 --server " + server.url() + " --token up-1"));
+  ASSERT_EQ(second.exit_code, 0) << second.output;
+  EXPECT_NE(second.output.find("as v2: 6 tiles, " + std::to_string(changed) + " uploaded"), std::string::npos) << second.output;
+  auto store = pl::store::Store::open(remote, false);
+  EXPECT_EQ(store.find_map("m")->current.value(), 2);
+  auto a = pl::store::Store::open(local, false).list_tiles("m", 2), b = store.list_tiles("m", 2);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].hash, b[i].hash);
+}
