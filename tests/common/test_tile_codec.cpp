@@ -262,6 +262,20 @@ TEST(TileCodec, OptionalAttributes) {
   EXPECT_LT(pl::encode_tile(with_normals).size(), pl::encode_tile(full).size());
 }
 
+// Draco's k-d tree coder wins on noise-free normals at speeds up to 4 (its best level), the sequential
+// one on noisy normals; both stay within every bound. (Byte 8 of a Draco header is the coder.)
+TEST(TileCodec, BothDracoCodersStayWithinBounds) {
+  TileCodecConfig fast_kd;
+  fast_kd.speed = 0;
+  const TileCloud smooth = realistic_tile({4000.0, -2500.0, 35.0}, 20, 0.0);
+  const std::string kd_bytes = pl::encode_tile(smooth, fast_kd);
+  EXPECT_EQ(kd_bytes[8], 1) << "expected the k-d tree coder";
+  round_trip(smooth, fast_kd);
+  const TileCloud noisy = realistic_tile({4000.0, -2500.0, 35.0}, 21, 2.0);
+  EXPECT_EQ(pl::encode_tile(noisy, fast_kd)[8], 0) << "expected the sequential coder";
+  round_trip(noisy, fast_kd);
+}
+
 TEST(TileCodec, NormalsWithinTheAngularErrorOfTheirBits) {
   const TileCloud tile = random_cloud(1500, {4000.0, -2500.0, 0.0}, {20, 20, 5}, 15);
   for (int bits : {4, 6, 8, 10, 12, 16}) {

@@ -28,11 +28,15 @@ struct TileCodecConfig {
 // Encodes the cloud. Throws pl::Error for mismatched attribute counts or non-finite values.
 std::string encode_tile(const TileCloud& cloud, const TileCodecConfig& cfg = {});
 
-// Decodes bytes written by encode_tile (or any Draco point cloud with a position attribute).
-// Throws pl::Error naming what is wrong when the bytes are not a valid Draco point cloud.
+// Decodes bytes written by encode_tile (or any Draco point cloud with a position attribute; the
+// origin is 0 without "pl.origin" metadata, intensity is a GENERIC attribute named "intensity").
+// Points may come back in another order. Throws pl::Error("not a valid Draco point cloud: ...")
+// when the bytes are not one, and also for Draco meshes and for streams that would decode to more
+// than max(32 MiB, 64 x their size) (memory bombs; encode_tile never writes one).
 TileCloud decode_tile(std::string_view bytes);
 
-// Number of points and attributes without decoding positions (cheap validation for uploads).
+// Number of points and attributes. Draco cannot check a payload without decoding it, so this
+// decodes (about as fast as decode_tile) and accepts exactly what decode_tile accepts: the upload check.
 struct TileSummary {
   std::size_t points = 0;
   bool has_normals = false, has_intensity = false;
