@@ -8,9 +8,11 @@
 // named "intensity" in its attribute metadata, cfg.intensity_bits on the values' own range.
 // Points are sorted (Hilbert order of the quantized positions, then every other field) so that equal
 // sets of points give equal bytes. Unless cfg.speed is 10 (Draco's "sequential only"), both of
-// Draco's point cloud coders are run and the smaller output is kept: the k-d tree coder wins on
-// positions alone, the sequential one (with octahedral normals) usually wins once noisy normals and
-// intensity come along.
+// Draco's point cloud coders are run and the smaller output is kept: at speeds up to 4 the k-d tree
+// coder wins on positions alone and on smooth normals, the sequential one (octahedral normals, delta
+// prediction along the Hilbert order) wins once noisy normals and intensity come along.
+// Decoding walks the stream's header first and refuses declared sizes Draco would allocate gigabytes
+// for (see check_stream), then lets Draco decode, dequantizing positions itself straight to doubles.
 #include "pl/common/tile_codec.hpp"
 
 #include <draco/compression/decode.h>
@@ -71,6 +73,12 @@ void check_cloud(const TileCloud& cloud) {
   for (std::size_t i = 0; i < cloud.intensity.size(); ++i)
     if (!std::isfinite(cloud.intensity[i]))
       throw Error("tile codec: intensity " + std::to_string(i) + " is not finite");
+  if (!cloud.intensity.empty()) {  // Draco quantizes on the float32 range of the values
+    const auto [lo, hi] = std::minmax_element(cloud.intensity.begin(), cloud.intensity.end());
+    if (!std::isfinite(*hi - *lo))
+      throw Error("tile codec: intensity values span more than float32 can hold (" + std::to_string(*lo) + " to " +
+                  std::to_string(*hi) + ")");
+  }
 }
 
 // The explicit quantization of the positions: a whole-metre origin (double), and Draco's
@@ -95,7 +103,7 @@ PositionQuantization quantize_positions(const std::vector<Eigen::Vector3d>& poin
     lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);
   }
-  q.origin = lo.array().floor();
+  q.origin = lo.array().floor() + 0.0;  // (+ 0.0: no -0 in the bytes, equal tiles give equal bytes)
   q.min = lo;
   const double extent = (hi - lo).maxCoeff();
   // Float32 rounding: the offset, Draco's subtraction, scaling and rounding on encode, scaling and
@@ -114,7 +122,7 @@ PositionQuantization quantize_positions(const std::vector<Eigen::Vector3d>& poin
       throw Error("tile codec: max_error_m " + std::to_string(max_error) + " needs more than " +
                   std::to_string(kMaxPositionBits) + " bits in a " + std::to_string(extent) + " m box");
   }
-  for (int c = 0; c < 3; ++c) q.box_min[c] = static_cast<float>(lo[c] - q.origin[c]);
+  for (int c = 0; c < 3; ++c) q.box_min[c] = static_cast<float>(lo[c] - q.origin[c]) + 0.0f;
   q.range = range;
   q.bits = bits;
   q.step = static_cast<double>(range) / (std::ldexp(1.0, bits) - 1.0);
@@ -197,9 +205,10 @@ struct Attributes {
 };
 
 // The point cloud as Draco will encode it; `atts` receives the attribute ids.
-std::unique_ptr<draco::PointCloud> build_point_cloud(const TileCloud& cloud, const std::vector<Eigen::Vector3f>& normals,
-                                                     const PositionQuantization& q, const std::vector<uint32_t>& order,
-                                                     Attributes& atts) {
+std::unique_ptr<draco::PointCloud> build_point_cloud(const TileCloud& cloud,
+                                                     const std::vector<Eigen::Vector3f>& normals,
+                                                     const PositionQuantization& q,
+                                                     const std::vector<uint32_t>& order, Attributes& atts) {
   const auto n = static_cast<draco::PointIndex::ValueType>(cloud.size());
   draco::PointCloudBuilder builder;
   builder.Start(n);
@@ -221,7 +230,7 @@ std::unique_ptr<draco::PointCloud> build_point_cloud(const TileCloud& cloud, con
   }
   if (atts.intensity >= 0) {
     std::vector<float> values(order.size());
-    for (std::size_t k = 0; k < order.size(); ++k) values[k] = cloud.intensity[order[k]];
+    for (std::size_t k = 0; k < order.size(); ++k) values[k] = cloud.intensity[order[k]] + 0.0f;  // no -0
     builder.SetAttributeValuesForAllPoints(atts.intensity, values.data(), 0);
   }
   std::unique_ptr<draco::PointCloud> pc = builder.Finalize(false);
@@ -318,7 +327,9 @@ void check_stream(std::string_view bytes) {
     invalid("unknown encoding method " + std::to_string(method));
   const auto version = [](int ma, int mi) { return ma * 256 + mi; };
   const int v = version(major, minor);
-  if (major < 1 || v > version(draco::kDracoPointCloudBitstreamVersionMajor, draco::kDracoPointCloudBitstreamVersionMinor))
+  const int newest =
+      version(draco::kDracoPointCloudBitstreamVersionMajor, draco::kDracoPointCloudBitstreamVersionMinor);
+  if (major < 1 || v > newest)
     invalid("unsupported bitstream version " + std::to_string(major) + "." + std::to_string(minor));
   if (v >= version(1, 3) && (flags & METADATA_FLAG_MASK)) {
     uint32_t attribute_metadata = 0;
@@ -335,12 +346,14 @@ void check_stream(std::string_view bytes) {
     invalid("point count " + std::to_string(points) + " is out of range (at most " + std::to_string(kMaxPoints) + ")");
   uint8_t decoders = 0;
   if (!r.read(decoders)) invalid("truncated before the attributes");
+  const std::size_t budget = std::max(kDecodeFloorBytes, kDecodeExpansion * bytes.size());
   std::size_t decoded_bytes = 0;
   for (int d = 0; d < decoders; ++d) {
     uint32_t attributes = 0;
     const bool ok = v < version(2, 0) ? r.read(attributes) : r.varint(attributes);
     if (!ok) invalid("truncated attribute list");
-    if (attributes == 0 || attributes > r.remaining() / 5) invalid("attribute count " + std::to_string(attributes) + " does not fit the stream");
+    if (attributes == 0 || attributes > r.remaining() / 5)  // a descriptor takes 5 bytes or more
+      invalid("attribute count " + std::to_string(attributes) + " does not fit the stream");
     for (uint32_t a = 0; a < attributes; ++a) {
       uint8_t type = 0, data_type = 0, components = 0, normalized = 0;
       uint32_t unique_id = 0;
@@ -353,14 +366,13 @@ void check_stream(std::string_view bytes) {
       if (components == 0) invalid("attribute with no components");
       decoded_bytes += static_cast<std::size_t>(points) * components *
                        static_cast<std::size_t>(draco::DataTypeLength(static_cast<draco::DataType>(data_type)));
+      if (decoded_bytes > budget)
+        invalid(std::to_string(points) + " points would decode to more than " + std::to_string(budget) +
+                " bytes from " + std::to_string(bytes.size()) + " (refused)");
     }
     if (method == draco::POINT_CLOUD_SEQUENTIAL_ENCODING && !r.skip(attributes))
       invalid("truncated attribute decoder list");
   }
-  const std::size_t budget = std::max(kDecodeFloorBytes, kDecodeExpansion * bytes.size());
-  if (decoded_bytes > budget)
-    invalid(std::to_string(points) + " points would decode to " + std::to_string(decoded_bytes) + " bytes from " +
-            std::to_string(bytes.size()) + " (more than " + std::to_string(budget) + " is refused)");
 }
 
 std::unique_ptr<draco::PointCloud> decode_point_cloud(std::string_view bytes) {
@@ -402,7 +414,8 @@ const draco::PointAttribute* intensity_attribute(const draco::PointCloud& pc) {
 void check_mapping(const draco::PointAttribute& att, std::size_t n, const char* what) {
   const std::size_t stored = att.size();
   const int64_t stride = att.byte_stride();
-  const std::size_t value_bytes = static_cast<std::size_t>(att.num_components()) * draco::DataTypeLength(att.data_type());
+  const std::size_t value_bytes =
+      static_cast<std::size_t>(att.num_components()) * draco::DataTypeLength(att.data_type());
   if (!att.buffer() || stride <= 0 ||
       (stored > 0 && static_cast<std::size_t>(att.byte_offset() + stride * static_cast<int64_t>(stored - 1)) +
                              value_bytes > att.buffer()->data_size()))
@@ -450,7 +463,7 @@ void read_values(const draco::PointAttribute& att, std::size_t n, Out* out, cons
 void read_positions(const draco::PointAttribute& att, std::size_t n, const Eigen::Vector3d& origin, double* xyz) {
   read_values<3>(att, n, xyz, "POSITION");
   const draco::AttributeTransformData* transform = att.GetAttributeTransformData();
-  if (!transform) {
+  if (!transform || att.data_type() == draco::DT_FLOAT32 || att.data_type() == draco::DT_FLOAT64) {
     for (std::size_t k = 0; k < 3 * n; ++k) xyz[k] += origin[k % 3];
     return;
   }
@@ -473,7 +486,8 @@ void check_finite(const T* values, std::size_t count, int per_point, const char*
   for (std::size_t k = 0; k < count; ++k) sum += static_cast<double>(values[k]);
   if (std::isfinite(sum)) return;
   for (std::size_t k = 0; k < count; ++k)
-    if (!std::isfinite(static_cast<double>(values[k]))) invalid(std::string(what) + " " + std::to_string(k / per_point) + " is not finite");
+    if (!std::isfinite(static_cast<double>(values[k])))
+      invalid(std::string(what) + " " + std::to_string(k / per_point) + " is not finite");
 }
 
 Eigen::Vector3d tile_origin(const draco::PointCloud& pc) {
@@ -526,8 +540,8 @@ std::string encode_tile(const TileCloud& cloud, const TileCodecConfig& cfg) {
   try {
     check_stream(best);
   } catch (const Error& e) {
-    throw Error(std::string("tile codec: the encoded tile would be refused on decoding (") + e.what() +
-                "); are most of its points duplicates?");
+    throw Error(std::string("tile codec: decode_tile would refuse the encoded tile (") + e.what() +
+                "): too many points, or mostly duplicates?");
   }
   return best;
 }

@@ -19,14 +19,6 @@ struct Sums {
   std::uint32_t n;
 };
 
-struct TripleHash {
-  std::size_t operator()(const std::array<std::int64_t, 3>& k) const {
-    std::uint64_t h = static_cast<std::uint64_t>(k[0]) * 0x9E3779B97F4A7C15ull;
-    h ^= static_cast<std::uint64_t>(k[1]) * 0xC2B2AE3D27D4EB4Full + (h << 6) + (h >> 2);
-    h ^= static_cast<std::uint64_t>(k[2]) * 0x165667B19E3779F9ull + (h << 6) + (h >> 2);
-    return static_cast<std::size_t>(h);
-  }
-};
 
 // floor() for |v| < 2^62 without a libm call (baseline x86-64 has no rounding instruction).
 inline std::int64_t fast_floor(double v) {
@@ -127,7 +119,7 @@ std::vector<Sums<Real>> accumulate(std::size_t n, Get&& get, double voxel) {
     }
   } else {
     // Clouds of more than 2^40 voxels or 2^24 points: full 64-bit indices in a general hash map.
-    std::unordered_map<std::array<std::int64_t, 3>, std::uint32_t, TripleHash> map;
+    std::unordered_map<VoxelIndex, std::uint32_t, VoxelIndexHash> map;
     map.reserve(n);
     for (std::size_t i = 0; i < n; ++i) {
       Real x, y, z, v;

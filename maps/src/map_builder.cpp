@@ -12,17 +12,9 @@ VoxelAccumulator::VoxelAccumulator(double voxel) : inv_(1.0 / voxel) {
   if (!(voxel > 0.0)) throw Error("voxel size must be a positive number of metres");
 }
 
-std::size_t VoxelAccumulator::KeyHash::operator()(const Key& k) const {
-  std::uint64_t h = static_cast<std::uint64_t>(k.x) * 0x9E3779B97F4A7C15ull;
-  h ^= static_cast<std::uint64_t>(k.y) * 0xC2B2AE3D27D4EB4Full + (h << 6) + (h >> 2);
-  h ^= static_cast<std::uint64_t>(k.z) * 0x165667B19E3779F9ull + (h << 6) + (h >> 2);
-  return static_cast<std::size_t>(h);
-}
 
 void VoxelAccumulator::add(const Eigen::Vector3d& p, float intensity) {
-  Key k{static_cast<std::int64_t>(std::floor(p.x() * inv_)), static_cast<std::int64_t>(std::floor(p.y() * inv_)),
-        static_cast<std::int64_t>(std::floor(p.z() * inv_))};
-  auto [it, fresh] = index_.try_emplace(k, static_cast<std::uint32_t>(sums_.size()));
+  auto [it, fresh] = index_.try_emplace(voxel_index(p, inv_), static_cast<std::uint32_t>(sums_.size()));
   if (fresh) {
     sums_.push_back({p.x(), p.y(), p.z(), intensity, 1});
   } else {
@@ -67,28 +59,13 @@ MapCloud build_map_from_poses(const Dataset& ds, const Trajectory& poses, const 
   return out;
 }
 
-namespace {
-
-struct CellHash {
-  std::size_t operator()(const std::array<std::int64_t, 3>& k) const {
-    std::uint64_t h = static_cast<std::uint64_t>(k[0]) * 0x9E3779B97F4A7C15ull;
-    h ^= static_cast<std::uint64_t>(k[1]) * 0xC2B2AE3D27D4EB4Full + (h << 6) + (h >> 2);
-    h ^= static_cast<std::uint64_t>(k[2]) * 0x165667B19E3779F9ull + (h << 6) + (h >> 2);
-    return static_cast<std::size_t>(h);
-  }
-};
-
-}  // namespace
 
 std::vector<Eigen::Vector3f> estimate_normals(const Points3d& points, double radius, std::vector<float>* planarity) {
   if (!(radius > 0.0)) throw Error("the normal radius must be positive");
   const double inv = 1.0 / radius, r2 = radius * radius;
-  auto cell = [inv](const Eigen::Vector3d& p) {
-    return std::array<std::int64_t, 3>{static_cast<std::int64_t>(std::floor(p.x() * inv)), static_cast<std::int64_t>(std::floor(p.y() * inv)),
-                                       static_cast<std::int64_t>(std::floor(p.z() * inv))};
-  };
+  auto cell = [inv](const Eigen::Vector3d& p) { return voxel_index(p, inv); };
   // Points grouped by cell: cell -> [begin, end) into `order`.
-  std::unordered_map<std::array<std::int64_t, 3>, std::vector<std::uint32_t>, CellHash> cells;
+  std::unordered_map<VoxelIndex, std::vector<std::uint32_t>, VoxelIndexHash> cells;
   cells.reserve(points.size() / 4 + 1);
   for (std::uint32_t i = 0; i < points.size(); ++i) cells[cell(points[i])].push_back(i);
   std::vector<Eigen::Vector3f> normals(points.size(), Eigen::Vector3f::UnitZ());

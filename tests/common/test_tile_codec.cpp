@@ -330,6 +330,18 @@ TEST(TileCodec, EqualTilesGiveEqualBytes) {
       EXPECT_EQ(pl::encode_tile(shuffled, cfg), bytes);
     }
   }
+  // Negative zeros are zeros.
+  TileCloud zeros;
+  zeros.points = {{0.0, 0.0, 0.0}, {1.5, -0.0, 2.0}, {-0.0, 3.0, -0.0}};
+  zeros.normals = {{0.f, 0.f, 1.f}, {-0.f, 1.f, 0.f}, {1.f, 0.f, -0.f}};
+  zeros.intensity = {0.f, 0.5f, -0.f};
+  TileCloud signed_zeros = zeros;
+  for (auto& p : signed_zeros.points) p = -(-p);
+  signed_zeros.points[0] = {-0.0, -0.0, -0.0};
+  signed_zeros.normals[0] = {-0.f, -0.f, 1.f};
+  signed_zeros.intensity[0] = -0.f;
+  zeros.points[2] = {0.0, 3.0, 0.0};
+  EXPECT_EQ(pl::encode_tile(signed_zeros), pl::encode_tile(zeros));
   // Positions only (the k-d tree coder's case), with repeated points.
   TileCloud positions;
   positions.points = tile.points;
@@ -392,6 +404,11 @@ TEST(TileCodec, BadInputIsRefused) {
   t = tile;
   t.intensity[7] = std::numeric_limits<float>::quiet_NaN();
   expect_error(t, {}, "intensity 7 is not finite");
+
+  t = tile;
+  t.intensity[8] = -3e38f;
+  t.intensity[9] = 3e38f;
+  expect_error(t, {}, "span more than float32");
 
   TileCodecConfig cfg;
   cfg.max_error_m = 0;
@@ -478,6 +495,39 @@ TEST(TileCodec, GarbageIsRefusedWithoutCrashing) {
     for (char& c : bad) c = static_cast<char>(rng());
     decode_or_refuse(bad, refused);
   }
+}
+
+// A stream that declares far more points than its size can hold is refused before Draco allocates
+// for them (a few corrupted bytes must not cost gigabytes).
+TEST(TileCodec, DeclaredSizesBeyondTheBudgetAreRefused) {
+  TileCloud small = realistic_tile({4000.0, -2500.0, 0.0}, 22);
+  small.points.resize(150);
+  small.normals.resize(150);
+  small.intensity.resize(150);
+  const std::string valid = pl::encode_tile(small);
+  // The point count (int32, little-endian) follows the geometry metadata: "pl.origin", 24 bytes of
+  // doubles, the count of sub-metadata.
+  const std::size_t after_origin = valid.find("pl.origin") + 9 + 1 + 24;
+  const std::size_t at = valid.find(std::string("\x96\0\0\0", 4), after_origin);
+  ASSERT_NE(at, std::string::npos);
+  ASSERT_LT(at, after_origin + 4);
+  auto with_count = [&](uint32_t count) {
+    std::string bad = valid;
+    for (int b = 0; b < 4; ++b) bad[at + b] = static_cast<char>((count >> (8 * b)) & 0xff);
+    return bad;
+  };
+  EXPECT_EQ(pl::decode_tile(with_count(150)).size(), 150u);
+  auto expect_refused = [](const std::string& bytes, const std::string& part) {
+    try {
+      pl::decode_tile(bytes);
+      ADD_FAILURE() << "decoded; expected an error mentioning \"" << part << "\"";
+    } catch (const pl::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+    }
+  };
+  expect_refused(with_count(1u << 22), "would decode to");
+  expect_refused(with_count(0x7fffffffu), "out of range");
+  expect_refused(with_count(0x80000000u), "out of range");
 }
 
 // Debian's draco_decoder reads our tiles (as offsets from the tile origin).

@@ -23,19 +23,12 @@ class VoxelAccumulator {
   Points3d centroids(std::vector<float>& intensity) const;
 
  private:
-  struct Key {
-    std::int64_t x, y, z;
-    bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
-  };
-  struct KeyHash {
-    std::size_t operator()(const Key& k) const;
-  };
   struct Sum {
     double x, y, z, i;
     std::uint32_t n;
   };
   double inv_;
-  std::unordered_map<Key, std::uint32_t, KeyHash> index_;
+  std::unordered_map<VoxelIndex, std::uint32_t, VoxelIndexHash> index_;
   std::vector<Sum> sums_;
 };
 
