@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The map service under load, measured against nginx serving the very same tile bytes as static
-# files, in the same run: wrk with 64 keep-alive connections on one thread (the other core serves), 10 s each.
+# files, in the same run: wrk with 64 keep-alive connections on one thread (the other core serves),
+# five alternating rounds of 4 s each, medians quoted.
 #   bench/bench_server.sh BIN_DIR WORK_DIR
 set -euo pipefail
 bin=${1:?usage: bench_server.sh BIN_DIR WORK_DIR}
@@ -70,18 +71,31 @@ with open(sys.argv[1], "w") as f:
     f.write('i = 0\nrequest = function() i = (i % #paths) + 1; return wrk.format("GET", paths[i]) end\n')
 PY
 
-run_wrk() {  # URL SCRIPT -> "requests/s p99_ms"
-  wrk -t1 -c64 -d10s --latency -s "$2" "$1" 2>&1 | awk '
+run_wrk() {  # URL SCRIPT SECONDS -> "requests/s p99_ms"
+  wrk -t1 -c64 -d"$3"s --latency -s "$2" "$1" 2>&1 | awk '
     /Requests\/sec/ {rps=$2}
     / 99%/ {v=$2; if (v ~ /us$/) {sub(/us/,"",v); v=v/1000} else if (v ~ /ms$/) {sub(/ms/,"",v)} else if (v ~ /s$/) {sub(/s/,"",v); v=v*1000}; p99=v}
     END {printf "%s %s\n", rps, p99}'
 }
-read -r ours_rps ours_p99 < <(run_wrk "http://127.0.0.1:$port_ours" "$work/tiles.lua")
-read -r nginx_rps nginx_p99 < <(run_wrk "http://127.0.0.1:$port_nginx" "$work/tiles.lua")
-read -r roi_rps roi_p99 < <(run_wrk "http://127.0.0.1:$port_ours" "$work/roi.lua")
+# Alternate short rounds, ours then nginx, so that a ratio holds when the shared machine's speed drifts;
+# quote medians.
+rounds=5
+: >"$work/rounds.txt"
+for r in $(seq $rounds); do
+  read -r a ap < <(run_wrk "http://127.0.0.1:$port_ours" "$work/tiles.lua" 4)
+  read -r b bp < <(run_wrk "http://127.0.0.1:$port_nginx" "$work/tiles.lua" 4)
+  echo "$a $ap $b $bp" >>"$work/rounds.txt"
+done
+read -r roi_rps roi_p99 < <(run_wrk "http://127.0.0.1:$port_ours" "$work/roi.lua" 10)
 tiles=$(wc -l <"$work/paths.txt")
-echo "tile GET, $tiles distinct tiles round robin, wrk -t1 -c64 -d10s (keep-alive), 2 server threads, same machine:"
-printf '  pl-server  %10.0f requests/s  p99 %6.2f ms\n' "$ours_rps" "$ours_p99"
-printf '  nginx      %10.0f requests/s  p99 %6.2f ms (static files of the same bytes)\n' "$nginx_rps" "$nginx_p99"
-python3 -c "print('  pl-server / nginx = %.2fx (target >= 0.8x), p99 target <= 5 ms' % ($ours_rps / $nginx_rps))"
+echo "tile GET, $tiles distinct tiles round robin, wrk -t1 -c64 (keep-alive), 2 server threads, $rounds alternating rounds of 4 s:"
+python3 - "$work/rounds.txt" <<'PY'
+import statistics, sys
+rows = [list(map(float, l.split())) for l in open(sys.argv[1]) if l.strip()]
+med = lambda k: statistics.median(r[k] for r in rows)
+ratios = [r[0] / r[2] for r in rows]
+print("  pl-server  %8.0f requests/s  p99 %5.2f ms  (median; rounds: %s)" % (med(0), med(1), ", ".join("%.0f" % r[0] for r in rows)))
+print("  nginx      %8.0f requests/s  p99 %5.2f ms  (static files of the same bytes; rounds: %s)" % (med(2), med(3), ", ".join("%.0f" % r[2] for r in rows)))
+print("  pl-server / nginx: median %.2fx (rounds: %s); target >= 0.8x, p99 <= 5 ms" % (statistics.median(ratios), ", ".join("%.2f" % x for x in ratios)))
+PY
 printf 'ROI queries (60 m radius, 36 places on the loop): %.0f requests/s, p99 %.2f ms\n' "$roi_rps" "$roi_p99"

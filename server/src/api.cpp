@@ -369,6 +369,7 @@ struct Api::Impl {
     r.status = 200;
     r.content_type = "application/vnd.google.draco";
     r.blob = std::move(bytes);
+    r.blob_hash = hash;
     return r;
   }
 

@@ -7,6 +7,14 @@
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <chrono>
+#include <fcntl.h>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <sys/resource.h>
+#include <sys/sendfile.h>
+#include <unistd.h>
+#include <unordered_map>
 #include <cstdio>
 #include <ctime>
 #include <map>
@@ -37,6 +45,59 @@ std::string utc_now() {
 
 std::mutex log_mutex;
 
+// Tile bytes as files named by their content hash, so that responses go out with sendfile(2)
+// (no copy into the socket). Tiles never change, so a file once written is valid for good; the
+// folder is removed when the server stops. Bounded by `max_files` open descriptors.
+class BlobFiles {
+ public:
+  explicit BlobFiles(std::size_t max_files) : max_files_(max_files) {
+    std::string tmpl = (std::filesystem::temp_directory_path() / "pl-server-tiles-XXXXXX").string();
+    if (mkdtemp(tmpl.data())) dir_ = tmpl;
+  }
+  ~BlobFiles() {
+    for (auto& [hash, fd] : fds_) ::close(fd);
+    std::error_code ec;
+    if (!dir_.empty()) std::filesystem::remove_all(dir_, ec);
+  }
+  // A read-only descriptor of the bytes, or -1 (no room or no folder: the caller copies instead).
+  int fd_of(const std::string& hash, const std::string& bytes) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = fds_.find(hash);
+    if (it != fds_.end()) return it->second;
+    if (dir_.empty() || fds_.size() >= max_files_) return -1;
+    std::string path = dir_ + "/" + hash, tmp = path + ".tmp";
+    {
+      std::ofstream out(tmp, std::ios::binary);
+      out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+      if (!out) return -1;
+    }
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) return -1;
+    int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return -1;
+    fds_.emplace(hash, fd);
+    return fd;
+  }
+
+ private:
+  std::size_t max_files_;
+  std::string dir_;
+  std::mutex mutex_;
+  std::unordered_map<std::string, int> fds_;
+};
+
+// Room for many open tile files: raise the descriptor limit towards the hard limit.
+std::size_t raise_fd_limit() {
+  rlimit rl{};
+  if (getrlimit(RLIMIT_NOFILE, &rl) != 0) return 256;
+  rlim_t want = std::min<rlim_t>(rl.rlim_max, 65536);
+  if (rl.rlim_cur < want) {
+    rl.rlim_cur = want;
+    setrlimit(RLIMIT_NOFILE, &rl);
+    getrlimit(RLIMIT_NOFILE, &rl);
+  }
+  return rl.rlim_cur > 2048 ? static_cast<std::size_t>(rl.rlim_cur) / 2 : 512;
+}
+
 }  // namespace
 
 struct Server::Impl {
@@ -47,6 +108,7 @@ struct Server::Impl {
   tcp::acceptor acceptor;
   net::signal_set signals;
   std::atomic<bool> stopping{false};
+  BlobFiles blob_files{raise_fd_limit()};
 
   explicit Impl(ServerConfig c)
       : cfg(std::move(c)), api(cfg.api, metrics), ioc(std::max(1, cfg.threads)), acceptor(ioc), signals(ioc, SIGINT, SIGTERM) {
@@ -113,6 +175,7 @@ struct Server::Impl {
       }
       parser_->body_limit(limit);
       start_ = std::chrono::steady_clock::now();
+      if (parser_->is_done()) return on_read({}, 0);  // no body (most GETs): no second read
       stream_.expires_after(ms(server_.cfg.read_timeout_s));
       http::async_read(stream_, buffer_, *parser_, beast::bind_front_handler(&Session::on_read, shared_from_this()));
     }
@@ -173,7 +236,32 @@ struct Server::Impl {
         for (const auto& [k, v] : r.headers) res.set(k, v);
         res.keep_alive(keep);
       };
-      if (r.blob && !head) {
+      int fd = r.blob && !head && r.status == 200 ? server_.blob_files.fd_of(r.blob_hash, *r.blob) : -1;
+      if (fd >= 0) {
+        // Tile bytes from their file with sendfile(2): the header first, then the file.
+        http::response<http::empty_body> res(static_cast<http::status>(r.status), version);
+        fill(res);
+        res.content_length(size);
+        std::ostringstream os;
+        os << res.base();
+        header_ = os.str();
+        file_fd_ = fd;
+        file_off_ = 0;
+        file_left_ = size;
+        keep_ = keep;
+        // The header with MSG_MORE, so that it leaves in the same packets as the file's first bytes.
+        beast::error_code nb;
+        stream_.socket().native_non_blocking(true, nb);
+        ssize_t sent = ::send(stream_.socket().native_handle(), header_.data(), header_.size(), MSG_MORE | MSG_NOSIGNAL);
+        if (sent == static_cast<ssize_t>(header_.size())) return send_file();
+        std::size_t done = sent > 0 ? static_cast<std::size_t>(sent) : 0;
+        stream_.expires_after(ms(server_.cfg.read_timeout_s));
+        net::async_write(stream_, net::buffer(header_.data() + done, header_.size() - done),
+                         [self = shared_from_this()](beast::error_code ec, std::size_t) {
+                           if (ec) return self->close();
+                           self->send_file();
+                         });
+      } else if (r.blob && !head) {
         // Tile bytes go out straight from the cache: the session holds them until written.
         held_ = r.blob;
         auto res = std::make_shared<http::response<http::span_body<const char>>>(static_cast<http::status>(r.status), version);
@@ -204,6 +292,41 @@ struct Server::Impl {
       });
     }
 
+    // The rest of the file, as fast as the socket takes it; waits for room without blocking a thread.
+    void send_file() {
+      auto sock = stream_.socket().native_handle();
+      if (!stream_.socket().native_non_blocking()) {
+        beast::error_code ec;
+        stream_.socket().native_non_blocking(true, ec);
+      }
+      while (file_left_ > 0) {
+        ssize_t n = ::sendfile(sock, file_fd_, &file_off_, file_left_);
+        if (n > 0) {
+          file_left_ -= static_cast<std::size_t>(n);
+          continue;
+        }
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0 && errno == EAGAIN) {
+          // Wait until the socket takes more, for the read timeout at most.
+          wait_timer_.expires_after(ms(server_.cfg.read_timeout_s));
+          wait_timer_.async_wait([self = shared_from_this()](beast::error_code ec) {
+            if (ec) return;  // cancelled: the socket became writable in time
+            beast::error_code ignored;
+            self->stream_.socket().cancel(ignored);
+          });
+          stream_.socket().async_wait(tcp::socket::wait_write, [self = shared_from_this()](beast::error_code ec) {
+            self->wait_timer_.cancel();
+            if (ec) return self->close();
+            self->send_file();
+          });
+          return;
+        }
+        return close();  // the client went away
+      }
+      if (!keep_) return close();
+      read();
+    }
+
     // Lingering close: stop sending, then read and drop what the client still sends (2 s at most),
     // so that a client busy writing a rejected body gets to read the answer instead of a reset.
     void linger() {
@@ -232,6 +355,12 @@ struct Server::Impl {
     std::optional<http::request_parser<http::string_body>> parser_;
     std::shared_ptr<void> response_;
     std::shared_ptr<const std::string> held_;
+    std::string header_;
+    net::steady_timer wait_timer_{stream_.get_executor()};
+    int file_fd_ = -1;
+    off_t file_off_ = 0;
+    std::size_t file_left_ = 0;
+    bool keep_ = false;
     Impl& server_;
     std::string remote_;
     bool first_ = true;

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <set>
 #include <thread>
 #include <unordered_map>
@@ -369,4 +370,50 @@ TEST(Server, ServedTilesDecodeWithDebiansDracoDecoder) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   std::string ply = pl::test::read_file(f.dir / "tile.ply");
   EXPECT_NE(ply.find("element vertex " + std::to_string(t["points"].get<int>())), std::string::npos) << ply.substr(0, 300);
+}
+
+TEST(Server, LargeTileToASlowReaderArrivesWhole) {
+  MapFixture f;
+  ServerProcess server(f.db, f.token_args());
+  HttpClient http(server.url());
+  ASSERT_EQ(http.request("POST", "/v1/maps/town/versions", "", bearer(kUploadToken)).status, 201);
+  // ~250k points of noise: a tile of megabytes that cannot sit in the socket buffers at once.
+  pl::TileCloud big;
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(0.0, 19.99);
+  for (int i = 0; i < 250000; ++i) {
+    big.points.emplace_back(200.0 + u(rng), 200.0 + u(rng), u(rng));
+    big.normals.push_back(Eigen::Vector3f(static_cast<float>(u(rng)) - 10.f, 1.f, 2.f).normalized());
+    big.intensity.push_back(static_cast<float>(u(rng) / 20.0));
+  }
+  std::string bytes = pl::encode_tile(big);
+  ASSERT_GT(bytes.size(), 1u << 20);
+  ASSERT_EQ(http.request("PUT", "/v1/maps/town/versions/2/tiles/10/10", bytes, bearer(kUploadToken)).status, 200);
+  ASSERT_EQ(http.request("POST", "/v1/maps/town/versions/2/publish", "", bearer(kUploadToken)).status, 200);
+  int fd = socket(AF_INET, SOCK_STREAM, 0);
+  int small = 4096;
+  setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof(small));
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<std::uint16_t>(server.port()));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+  std::string req = "GET /v1/maps/town/versions/2/tiles/10/10 HTTP/1.1\r\nHost: t\r\nConnection: close\r\n\r\n";
+  ASSERT_EQ(write(fd, req.data(), req.size()), static_cast<ssize_t>(req.size()));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the server fills what it can, then waits
+  std::string answer;
+  char buf[8192];
+  ssize_t n;
+  while ((n = read(fd, buf, sizeof(buf))) > 0) {
+    answer.append(buf, static_cast<std::size_t>(n));
+    if (answer.size() % (256 * 1024) < sizeof(buf)) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  close(fd);
+  auto split = answer.find("\r\n\r\n");
+  ASSERT_NE(split, std::string::npos);
+  EXPECT_EQ(answer.rfind("HTTP/1.1 200", 0), 0u);
+  EXPECT_NE(answer.find("Content-Length: " + std::to_string(bytes.size())), std::string::npos) << answer.substr(0, split);
+  EXPECT_TRUE(answer.substr(split + 4) == bytes);
+  // The server carries on.
+  EXPECT_EQ(HttpClient(server.url()).get("/healthz").status, 200);
 }

@@ -30,6 +30,7 @@ struct ApiResponse {
   int status = 200;
   std::string body;
   std::shared_ptr<const std::string> blob;  // when set, the body: tile bytes shared with the cache, not copied
+  std::string blob_hash;                     // their content hash
   std::string content_type = "application/json";
   std::vector<std::pair<std::string, std::string>> headers;
   std::string route;  // the route template, for metrics ("/v1/maps/{map}/roi")
