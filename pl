@@ -17,13 +17,16 @@ usage() {
   exit "${1:-0}"
 }
 
-# Installs the Debian packages in deploy/debian-packages.txt that are not installed yet.
+# Installs the Debian packages listed in the given files (default deploy/debian-packages.txt) that
+# are not installed yet.
 ensure_packages() {
-  local missing=() pkg
-  while read -r pkg; do
-    [[ -z "$pkg" || "$pkg" == \#* ]] && continue
-    dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
-  done < deploy/debian-packages.txt
+  local missing=() pkg list
+  for list in "${@:-deploy/debian-packages.txt}"; do
+    while read -r pkg; do
+      [[ -z "$pkg" || "$pkg" == \#* ]] && continue
+      dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
+    done <"$list"
+  done
   [[ ${#missing[@]} -eq 0 ]] && return 0
   if [[ $(id -u) -eq 0 ]]; then
     say "installing ${#missing[@]} Debian packages: ${missing[*]}"
@@ -69,7 +72,7 @@ cmd_test() {
 }
 
 cmd_bench() {
-  ensure_packages
+  ensure_packages deploy/debian-packages.txt deploy/bench-packages.txt
   build_release
   bash bench/run.sh build/release/bin
 }
