@@ -286,10 +286,9 @@ class Generator {
       heights.emplace(k, v);
       return v;
     };
-    WorldObject& g = new_object(ObjectClass::Ground, frame_at(s0).pos, Vec2(band, band), 0.f, 0.f);
+    new_object(ObjectClass::Ground, frame_at(s0).pos, Vec2(band, band), 0.f, 0.f);
     std::size_t gi = world_.objects.size() - 1;
     float road = static_cast<float>(cfg_.road_half_width);
-    (void)g;
     for (auto [x, y] : order) {
       Vec3 a(x * cell, y * cell, h(x, y)), b((x + 1) * cell, y * cell, h(x + 1, y));
       Vec3 c((x + 1) * cell, (y + 1) * cell, h(x + 1, y + 1)), d(x * cell, (y + 1) * cell, h(x, y + 1));
@@ -410,10 +409,9 @@ class Generator {
       len = half.x() * 2;
     }
     occ_.take(c, half, yaw);
-    WorldObject& o = new_object(warehouse ? ObjectClass::Building : ObjectClass::Building, c, half, yaw, height);
+    WorldObject& o = new_object(ObjectClass::Building, c, half, yaw, height);
     Material wall = warehouse ? Material::Metal : (chance(0.5f) ? Material::Brick : Material::Concrete);
     add_box(o, c, o.base, Vec3(half.x(), half.y(), height * 0.5f), yaw, wall);
-    Vec2 out = f.left * side;  // from the building towards the street
     float facade = road + setback;  // lateral offset of the facade from the path
     // Bays standing out of the facade and recessed entrances (a box set back hides nothing, so a
     // recess is a gap between two bays).
@@ -436,7 +434,6 @@ class Generator {
         o.materials.push_back(warehouse ? Material::Metal : Material::Glass);
       }
     }
-    (void)out;
     return len;
   }
 
