@@ -196,10 +196,14 @@ TEST(Server, UploadThenPublishSwitchesReadersAtomically) {
   // Readers do not see the staged version.
   EXPECT_EQ(http.get("/v1/maps/town/versions/2/tiles/5/0").status, 404);
   EXPECT_EQ(body_json(http.get("/v1/maps/town"))["current_version"], 1);
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  for (auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+       seen_v1.load() < 3 && std::chrono::steady_clock::now() < until;)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   auto pub = http.request("POST", "/v1/maps/town/versions/2/publish", "", bearer(kUploadToken));
   ASSERT_EQ(pub.status, 200) << pub.body;
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  // Let the reader see the new version (however slow this build is), then a few more reads.
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (seen_v2.load() < 3 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   done = true;
   reader.join();
   EXPECT_GT(seen_v1.load(), 0);
