@@ -33,32 +33,10 @@ const char* kUsage =
     "  push     --db FILE --map NAME --version N --server URL --token T\n"
     "           upload a local version to a server (only the tiles it lacks), then publish it there\n";
 
-std::vector<double> parse_list(const std::string& text, std::size_t n, const std::string& flag) {
-  std::vector<double> v;
-  for (auto f : pl::split_fields(text, ",")) {
-    double d;
-    if (!pl::parse_double(f, d)) break;
-    v.push_back(d);
-  }
-  if (v.size() != n) throw pl::Error(flag + " takes " + std::to_string(n) + " comma-separated numbers, got \"" + text + "\"");
-  return v;
-}
-
 std::string mb(double bytes) {
   char buf[32];
   std::snprintf(buf, sizeof(buf), "%.2f MB", bytes / 1e6);
   return buf;
-}
-
-void progress_cb(std::size_t done, std::size_t total) {
-  static pl::Progress* bar = nullptr;
-  if (!bar) bar = new pl::Progress("merging scans", total);
-  bar->update(done);
-  if (done == total) {
-    bar->finish();
-    delete bar;
-    bar = nullptr;
-  }
 }
 
 int cmd_build(const pl::Args& a) {
@@ -74,10 +52,13 @@ int cmd_build(const pl::Args& a) {
   if (poses != "gt") throw pl::Error("--poses takes gt (the G-LOAM builder with lidar poses comes later)");
   pl::Dataset ds = pl::open_dataset(dir);
   if (!ds.has_ground_truth()) throw pl::Error(ds.dir + ": --poses gt needs ground-truth poses (poses.txt or OXTS)");
-  pl::maps::MapCloud map = pl::maps::build_map_from_poses(ds, ds.ground_truth, cfg, progress_cb);
+  std::size_t scans = (ds.size() + cfg.every - 1) / cfg.every;
+  pl::Progress bar("merging scans", scans);
+  pl::maps::MapCloud map = pl::maps::build_map_from_poses(ds, ds.ground_truth, cfg, [&](std::size_t done, std::size_t) { bar.update(done); });
+  bar.finish();
   pl::write_pcd(out, map.points, map.intensity, ds.meta.origin);
   std::printf("wrote %s: %zu points from %zu scans at %.2f m voxels\n", out.c_str(), map.points.size(),
-              (ds.size() + cfg.every - 1) / cfg.every, cfg.voxel_m);
+              scans, cfg.voxel_m);
   return 0;
 }
 
@@ -97,7 +78,7 @@ int cmd_tile(const pl::Args& a) {
 
   pl::Cloud cloud = pl::read_cloud(cloud_path);
   if (origin_flag) {
-    auto v = parse_list(*origin_flag, 3, "--origin");
+    auto v = pl::parse_number_list(*origin_flag, 3, "--origin");
     cloud.origin = pl::GeoPoint{v[0], v[1], v[2]};
   }
   pl::store::Store store = pl::store::Store::open(db);

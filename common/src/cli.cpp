@@ -79,6 +79,17 @@ void Args::finish() const {
   if (!unknown.empty()) throw Error("unknown option " + unknown + " (see --help)");
 }
 
+std::vector<double> parse_number_list(const std::string& text, std::size_t n, const std::string& flag) {
+  std::vector<double> v;
+  for (auto f : split_fields(text, ",")) {
+    double d;
+    if (!parse_double(f, d)) break;
+    v.push_back(d);
+  }
+  if (v.size() != n) throw Error(flag + " takes " + std::to_string(n) + " comma-separated numbers, got \"" + text + "\"");
+  return v;
+}
+
 int run_cli(const char* program, int (*body)(int, char**), int argc, char** argv) {
   try {
     return body(argc, argv);

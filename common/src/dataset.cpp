@@ -98,15 +98,6 @@ std::vector<std::vector<double>> read_number_lines(const std::string& path, std:
   return out;
 }
 
-Pose pose_from_12(const std::vector<double>& v) {
-  Eigen::Matrix3d r;
-  r << v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10];
-  Pose p = Pose::Identity();
-  p.linear() = orthonormalize(r);
-  p.translation() = Eigen::Vector3d(v[3], v[7], v[11]);
-  return p;
-}
-
 // "KEY: 12 numbers" from a KITTI calibration file.
 std::optional<Pose> read_calib_entry(const std::string& path, const std::string& key) {
   LineReader reader(path);
@@ -114,7 +105,7 @@ std::optional<Pose> read_calib_entry(const std::string& path, const std::string&
   while (reader.next(line)) {
     if (line.rfind(key + ":", 0) != 0) continue;
     auto v = parse_numbers(reader, line.substr(key.size() + 1), 12, 12, key + ": the row-major 3x4 transform", " \t\r");
-    return pose_from_12(v);
+    return pose_from_kitti_row(v);
   }
   return std::nullopt;
 }
@@ -145,7 +136,9 @@ void read_csv_sidecar(const std::string& path, const std::vector<std::string>& c
   }
 }
 
-int oxts_status(int posmode) {
+}  // namespace
+
+int gps_status_from_oxts(int posmode) {
   switch (posmode) {
     case 3: case 13: case 21: return kGpsSingle;
     case 4: case 7: case 8: case 14: case 17: case 18: case 22: return kGpsDgps;
@@ -154,6 +147,8 @@ int oxts_status(int posmode) {
     default: return kGpsNone;
   }
 }
+
+namespace {
 
 void open_odometry_layout(Dataset& ds) {
   ds.layout = DatasetLayout::KittiOdometry;
@@ -184,7 +179,7 @@ void open_odometry_layout(Dataset& ds) {
     }
     ds.ground_truth.format = PoseFormat::Kitti;
     for (long id : ds.frame_ids) {
-      Pose p = pose_from_12(rows[id]);
+      Pose p = pose_from_kitti_row(rows[id]);
       ds.ground_truth.poses.push_back(cam0 ? Pose(tr.inverse() * p * tr) : p);
     }
     ds.ground_truth.times = ds.times;
@@ -267,7 +262,7 @@ void open_raw_layout(Dataset& ds) {
 
   for (std::size_t i = 0; i < n; ++i) {
     const auto& o = oxts[i];
-    ds.gps.push_back({ds.times[i], {o[0], o[1], o[2]}, o[23], oxts_status(static_cast<int>(o[27]))});
+    ds.gps.push_back({ds.times[i], {o[0], o[1], o[2]}, o[23], gps_status_from_oxts(static_cast<int>(o[27]))});
   }
 
   ds.meta.sensor.vertical_angles_deg = hdl64_vertical_angles_deg();

@@ -51,14 +51,6 @@ Pose interpolate(const Pose& a, const Pose& b, double s) {
 
 namespace {
 
-Pose pose_from_kitti(const std::vector<double>& v) {
-  Eigen::Matrix3d r;
-  r << v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10];
-  Pose p = Pose::Identity();
-  p.linear() = orthonormalize(r);
-  p.translation() = Eigen::Vector3d(v[3], v[7], v[11]);
-  return p;
-}
 
 Pose pose_from_tum(const std::vector<double>& v, const LineReader& reader, const std::string& line) {
   Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
@@ -87,6 +79,15 @@ void finish_writing(FilePtr f, const std::string& path) {
 
 }  // namespace
 
+Pose pose_from_kitti_row(const std::vector<double>& v) {
+  Eigen::Matrix3d r;
+  r << v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10];
+  Pose p = Pose::Identity();
+  p.linear() = orthonormalize(r);
+  p.translation() = Eigen::Vector3d(v[3], v[7], v[11]);
+  return p;
+}
+
 Trajectory read_kitti_poses(const std::string& path) {
   LineReader reader(path);
   Trajectory traj;
@@ -94,7 +95,7 @@ Trajectory read_kitti_poses(const std::string& path) {
   std::string line;
   while (reader.next(line)) {
     auto v = parse_numbers(reader, line, 12, 12, "a KITTI pose: the row-major 3x4 matrix", " \t\r");
-    traj.poses.push_back(pose_from_kitti(v));
+    traj.poses.push_back(pose_from_kitti_row(v));
   }
   return traj;
 }

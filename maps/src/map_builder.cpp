@@ -35,7 +35,7 @@ Points3d VoxelAccumulator::centroids(std::vector<float>& intensity) const {
 }
 
 MapCloud build_map_from_poses(const Dataset& ds, const Trajectory& poses, const MapBuildConfig& cfg,
-                              void (*progress)(std::size_t, std::size_t)) {
+                              const std::function<void(std::size_t, std::size_t)>& progress) {
   if (poses.size() != ds.size())
     throw Error("the map needs one pose per scan: " + std::to_string(poses.size()) + " poses for " + std::to_string(ds.size()) + " scans");
   if (cfg.every == 0) throw Error("every must be at least 1");

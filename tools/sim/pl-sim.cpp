@@ -43,18 +43,6 @@ const char* kUsage =
     "  --threads N          worker threads (default: all cores); the output does not depend on it\n"
     "  --force              replace DIR when it already holds a dataset\n";
 
-std::vector<double> parse_list(const std::string& text, std::size_t n, const std::string& flag) {
-  auto fields = pl::split_fields(text, ",");
-  std::vector<double> v;
-  for (auto f : fields) {
-    double d;
-    if (!pl::parse_double(f, d)) break;
-    v.push_back(d);
-  }
-  if (v.size() != n) throw pl::Error(flag + " takes " + std::to_string(n) + " comma-separated numbers, got \"" + text + "\"");
-  return v;
-}
-
 int body(int argc, char** argv) {
   for (int i = 1; i < argc; ++i)
     if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
@@ -100,7 +88,7 @@ int body(int argc, char** argv) {
   }
   if (world) o.world.preset = *world;
   if (origin) {
-    auto v = parse_list(*origin, 3, "--origin");
+    auto v = pl::parse_number_list(*origin, 3, "--origin");
     o.origin = {v[0], v[1], v[2]};
   }
   if (o.fov_deg != 360.0 && o.fov_deg != 180.0) throw pl::Error("--fov takes 360 or 180");

@@ -60,14 +60,7 @@ std::vector<GnssProfileEntry> read_gnss_profile(const std::string& dir) {
     if (!r.next(line)) r.fail("one line of 30 OXTS values");
     auto v = parse_numbers(r, line, 30, 30, "an OXTS record (30 values)", " \t\r");
     int mode = static_cast<int>(v[27]);
-    int status = kGpsNone;
-    switch (mode) {  // the same mapping as the dataset reader
-      case 3: case 13: case 21: status = kGpsSingle; break;
-      case 4: case 7: case 8: case 14: case 17: case 18: case 22: status = kGpsDgps; break;
-      case 5: case 9: case 15: case 23: status = kGpsFloat; break;
-      case 6: case 16: case 24: status = kGpsFixed; break;
-      default: break;
-    }
+    int status = gps_status_from_oxts(mode);
     out.push_back({v[23], status, static_cast<int>(v[26])});
   }
   return out;

@@ -32,6 +32,9 @@ class Args {
   mutable std::set<std::string> known_;
 };
 
+// "a,b,c" as exactly n numbers; throws pl::Error naming the flag otherwise.
+std::vector<double> parse_number_list(const std::string& text, std::size_t n, const std::string& flag);
+
 // Runs a CLI body, printing pl::Error (and other exceptions) as "PROGRAM: error: ..." with exit code 2.
 int run_cli(const char* program, int (*body)(int, char**), int argc, char** argv);
 

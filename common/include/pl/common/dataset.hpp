@@ -19,6 +19,8 @@ enum class DatasetLayout { KittiOdometry, KittiRaw };
 // GPS status, from worst to best. OXTS position modes map onto it (see docs/dataset-layout.md).
 enum GpsStatus : int { kGpsNone = 0, kGpsSingle = 1, kGpsDgps = 2, kGpsFloat = 3, kGpsFixed = 4 };
 const char* gps_status_name(int status);
+// The status of an OXTS record's position mode (its 28th value).
+int gps_status_from_oxts(int posmode);
 
 struct GpsFix {
   double t = 0.0;  // seconds, the dataset's clock

@@ -35,6 +35,9 @@ Eigen::Matrix3d orthonormalize(const Eigen::Matrix3d& r);
 // Interpolates between two poses (linear translation, slerp rotation), s in [0, 1].
 Pose interpolate(const Pose& a, const Pose& b, double s);
 
+// A pose from the 12 numbers of a KITTI line (row-major 3x4), rotation projected onto SO(3).
+Pose pose_from_kitti_row(const std::vector<double>& v);
+
 // Readers throw pl::Error naming the file, the line and what was expected.
 Trajectory read_kitti_poses(const std::string& path);
 Trajectory read_tum_poses(const std::string& path);

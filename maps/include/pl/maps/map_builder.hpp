@@ -2,6 +2,7 @@
 // centroids per voxel), a normal per point, and the cut into tiles.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <unordered_map>
 #include <vector>
@@ -45,7 +46,7 @@ struct MapCloud {
 
 // Merges the dataset's scans placed by `poses` (one per scan). `progress(done, total)` may be null.
 MapCloud build_map_from_poses(const Dataset& ds, const Trajectory& poses, const MapBuildConfig& cfg,
-                              void (*progress)(std::size_t, std::size_t) = nullptr);
+                              const std::function<void(std::size_t, std::size_t)>& progress = {});
 
 // The normal of each point: the direction of least spread of its neighbours within `radius` (at least
 // 5 of them; otherwise straight up). Oriented deterministically: up when it is not near horizontal,
