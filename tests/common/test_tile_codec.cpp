@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <draco/compression/decode.h>
 
 #include <algorithm>
 #include <cmath>
@@ -293,6 +294,36 @@ TEST(TileCodec, NormalsWithinTheAngularErrorOfTheirBits) {
   for (auto& n : scaled.normals) n *= 3.0f;
   const TileCloud out = pl::decode_tile(pl::encode_tile(scaled));
   for (const auto& n : out.normals) EXPECT_NEAR(n.norm(), 1.0f, 1e-5f);
+}
+
+// decode_tile turns octahedral codes into normals itself (a table for up to 8 bits, Draco's tool box
+// beyond): the vectors must be exactly those Draco's own decoder gives, point for point.
+TEST(TileCodec, NormalsEqualDracosOwnDecoding) {
+  const TileCloud tile = random_cloud(2000, {4000.0, -2500.0, 0.0}, {20, 20, 5}, 23);
+  for (int bits : {3, 8, 9, 12}) {
+    SCOPED_TRACE("normal_bits " + std::to_string(bits));
+    TileCodecConfig cfg;
+    cfg.normal_bits = bits;
+    cfg.speed = 10;  // the sequential coder: octahedral normals, points kept in the encoded order
+    const std::string bytes = pl::encode_tile(tile, cfg);
+    draco::DecoderBuffer buffer;
+    buffer.Init(bytes.data(), bytes.size());
+    draco::Decoder decoder;
+    auto reference = decoder.DecodePointCloudFromBuffer(&buffer);
+    ASSERT_TRUE(reference.ok()) << reference.status().error_msg_string();
+    const auto& pc = *reference.value();
+    const draco::PointAttribute* att = pc.GetNamedAttribute(draco::GeometryAttribute::NORMAL);
+    ASSERT_NE(att, nullptr);
+    const TileCloud ours = pl::decode_tile(bytes);
+    ASSERT_EQ(ours.normals.size(), pc.num_points());
+    int differ = 0;
+    for (uint32_t i = 0; i < pc.num_points(); ++i) {
+      Eigen::Vector3f expected;
+      ASSERT_TRUE(att->ConvertValue<float>(att->mapped_index(draco::PointIndex(i)), 3, expected.data()));
+      if (ours.normals[i] != expected) ++differ;
+    }
+    EXPECT_EQ(differ, 0);
+  }
 }
 
 TEST(TileCodec, IntensityWithinItsBits) {
