@@ -18,3 +18,11 @@ echo "== bench_sim: simulated scans per second, one core"
 echo
 echo "== bench_server: tile serving against nginx, ROI queries, tile compression"
 bash "$(dirname "$0")/bench_server.sh" "$bin" "$root/build/bench"
+
+echo
+echo "== bench_localize: drive 0005, the paper's protocol (ours vs PCL)"
+if [[ -n "$data" ]]; then
+  bash "$(dirname "$0")/localize_kitti05.sh" "$bin" "$root/build/bench"
+else
+  echo "skipped: no real data (tools/shared-data.sh found none)"
+fi

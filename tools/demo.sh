@@ -1,29 +1,30 @@
 #!/usr/bin/env bash
-# The main job of ./pl demo: everything the product does so far, run for real on generated data,
-# then the result. So far: simulate a drive round the built-in town loop (HDL-64E, wheel encoders,
-# GPS, traffic), build the map from its ground-truth poses, tile it into a versioned SQLite store,
-# serve it with pl-server on 127.0.0.1 and fetch a region of interest over HTTP, prepare every scan
-# as the localizer will (16 of 64 beams, 0.2 m voxels), and evaluate the preparation time and the GPS
-# receiver against the ground truth.
+# The main job of ./pl demo: the whole product, run for real on generated data. Simulate the town
+# loop twice -- the mapping drive (epoch 0, empty streets) and, six months later, the drive to
+# localize (epoch 1: parked vehicles moved, 12 moving vehicles and pedestrians) -- build the map from
+# the mapping drive's ground-truth poses, tile it into a versioned SQLite store, serve it with
+# pl-server on 127.0.0.1, localize the second drive over HTTP with 16 of 64 beams and wheel-encoder
+# odometry, evaluate against its ground truth, stop the server, print the table.
 #   tools/demo.sh BIN_DIR OUT_DIR
 set -euo pipefail
 bin=${1:?usage: tools/demo.sh BIN_DIR OUT_DIR}
 out=${2:?usage: tools/demo.sh BIN_DIR OUT_DIR}
 mkdir -p "$out"
 out=$(cd "$out" && pwd)
-drive="$out/loop"
+mapping="$out/mapping"
+drive="$out/drive"
 
 step() { printf '\n\033[1m-- %s\033[0m\n' "$*"; }
 
-step "pl-sim: one lap of the town loop, HDL-64E, 12 moving vehicles and pedestrians"
-"$bin/pl-sim" --route loop --traffic 12 --seed 1 --out "$drive" --force --preview "$out/world.svg"
+step "pl-sim: the mapping drive (town loop, HDL-64E, epoch 0, no traffic)"
+"$bin/pl-sim" --route loop --seed 1 --epoch 0 --out "$mapping" --force --preview "$out/world.svg"
 
-step "pl-dataset info: what the drive holds"
-"$bin/pl-dataset" info "$drive"
+step "pl-sim: the drive to localize (same loop six months later: epoch 1, 12 moving vehicles and pedestrians)"
+"$bin/pl-sim" --route loop --seed 1 --epoch 1 --traffic 12 --out "$drive" --force
 
-step "pl-map build + tile + publish: the map of the drive, as Draco tiles in SQLite"
+step "pl-map build + tile + publish: the map, as Draco tiles in SQLite"
 rm -f "$out/maps.sqlite" "$out/maps.sqlite-wal" "$out/maps.sqlite-shm"
-"$bin/pl-map" build --dataset "$drive" --poses gt --out "$out/map.pcd"
+"$bin/pl-map" build --dataset "$mapping" --poses gt --out "$out/map.pcd"
 "$bin/pl-map" tile --cloud "$out/map.pcd" --db "$out/maps.sqlite" --map town
 "$bin/pl-map" publish --db "$out/maps.sqlite" --map town --version 1
 "$bin/pl-map" info --db "$out/maps.sqlite" --map town
@@ -39,38 +40,47 @@ for _ in $(seq 100); do
   sleep 0.1
 done
 [[ -n "$url" ]] || { cat "$out/server.log"; exit 1; }
-echo "manifest:  $(curl -sf "$url/v1/maps/town")"
-roi=$(curl -sf "$url/v1/maps/town/roi?x=100&y=0&radius=60")
-count=$(python3 -c 'import json,sys; t=json.loads(sys.argv[1])["tiles"]; print(len(t), sum(x["bytes"] for x in t), sum(x["points"] for x in t))' "$roi")
-read -r ntiles nbytes npoints <<<"$count"
-echo "ROI 60 m around (100, 0): $ntiles tiles, $npoints points, $nbytes bytes"
-first=$(python3 -c 'import json,sys; print(json.loads(sys.argv[1])["tiles"][0]["url"])' "$roi")
-curl -sf "$url$first" -o "$out/tile.drc"
-if command -v draco_decoder >/dev/null; then
-  draco_decoder -i "$out/tile.drc" -o "$out/tile.ply" >/dev/null && echo "draco_decoder: $first -> $(grep -a 'element vertex' "$out/tile.ply")"
-fi
+echo "manifest: $(curl -sf "$url/v1/maps/town")"
+
+step "pl-localize: 16 of 64 beams, wheel encoders, tiles streamed from $url"
+rm -f "$out/tiles-cache.sqlite"*
+"$bin/pl-localize" --dataset "$drive" --server "$url" --map town --lidar-beams 16 --odometry encoder \
+  --init gps --cache "$out/tiles-cache.sqlite" \
+  --out "$out/poses.tum" --kitti-out "$out/poses.txt" --timing "$out/timing.csv" | tee "$out/localize.log"
+
 kill -TERM $server && wait $server || true
 trap - EXIT
-tail -1 "$out/server.log"
+echo "server: $(tail -1 "$out/server.log")"
 
-step "pl-dataset poses: the ground-truth LiDAR poses"
-"$bin/pl-dataset" poses "$drive" --format tum --out "$out/ground_truth.tum"
-
-step "pl-dataset scans: 16 of 64 beams, 2-100 m, 0.2 m voxels"
-"$bin/pl-dataset" scans "$drive" --beams 16 --voxel 0.2 --timing "$out/prepare.csv"
-
-step "pl-eval timing: per-scan preparation time"
-"$bin/pl-eval" timing --csv "$out/prepare.csv" --column prepare_ms --plot "$out/plots" | head -4
-
-step "pl-eval ape: the GPS receiver against where its antenna really was"
-"$bin/pl-dataset" gps "$drive" --out "$out/gps.tum" --truth "$out/gps_truth.tum"
-"$bin/pl-eval" ape --est "$out/gps.tum" --gt "$out/gps_truth.tum" --up z --plot "$out/plots"
-"$bin/pl-dataset" gps "$drive" --status rtk-fixed --out "$out/gps_fixed.tum" --truth "$out/gps_fixed_truth.tum" >/dev/null
-printf '\nrtk-fixed fixes only:\n'
-"$bin/pl-eval" ape --est "$out/gps_fixed.tum" --gt "$out/gps_fixed_truth.tum" --up z | sed -n '/mean/,/max/p' | head -2
+step "pl-eval: accuracy against the ground truth, registration time"
+"$bin/pl-eval" ape --est "$out/poses.txt" --gt "$drive/poses.txt" --plot "$out/plots"
+"$bin/pl-eval" ape --json --est "$out/poses.txt" --gt "$drive/poses.txt" >"$out/ape.json"
+"$bin/pl-eval" timing --csv "$out/timing.csv" --column registration_ms --plot "$out/plots" | head -3
+"$bin/pl-eval" timing --json --csv "$out/timing.csv" --column registration_ms >"$out/timing.json"
 
 step "result"
-echo "simulated drive:  $drive (world top view: $out/world.svg)"
+python3 - "$out" <<'PY'
+import json, re, sys
+out = sys.argv[1]
+a = json.load(open(f"{out}/ape.json"))
+t = json.load(open(f"{out}/timing.json"))
+log = open(f"{out}/localize.log").read()
+status = re.search(r"status: ([^;]*)", log)
+hz = re.search(r"\(([\d.]+) Hz", log)
+rows = [
+    ("APE mean / median / RMSE / max", f"{a['mean']:.3f} / {a['median']:.3f} / {a['rmse']:.3f} / {a['max']:.3f} m",
+     "paper, KITTI 00: 0.228 / 0.142 / 0.325 m"),
+    ("coverage", f"{100 * a['coverage']:.1f} % of {a['gt_poses']} scans", ""),
+    ("scan status", status[1] if status else "?", ""),
+    ("registration per scan, one thread", f"median {t['p50']:.2f} ms, p99 {t['p99']:.2f} ms", "paper: < 100 ms a scan"),
+    ("fused poses", f"{hz[1] if hz else '?'} Hz (wheel encoders)", "paper: > 20 Hz"),
+]
+w = max(len(r[0]) for r in rows)
+for r in rows:
+    print(f"  {r[0]:<{w}}  {r[1]:<40} {r[2]}")
+PY
+echo
+echo "world top view:   $out/world.svg"
 echo "map:              $out/map.pcd, tiles in $out/maps.sqlite"
-echo "ground truth:     $out/ground_truth.tum"
-echo "figures:          $out/plots/"
+echo "poses:            $out/poses.tum (fused, odometry rate), $out/poses.txt (one per scan)"
+echo "plots:            $out/plots/ (trajectory.svg, error_over_distance.svg, error_histogram.svg, timing_histogram.svg)"

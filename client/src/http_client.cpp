@@ -20,6 +20,17 @@ std::string HttpResponse::header(const std::string& name) const {
   return it == headers.end() ? std::string() : it->second;
 }
 
+// Runs one asynchronous operation on the client's own io_context until it completes. Beast's stream
+// timer (expires_after) only applies to asynchronous operations: blocking calls never time out.
+template <class Start>
+void run_one(net::io_context& ioc, Start start) {
+  beast::error_code result = net::error::would_block;
+  start([&result](beast::error_code ec, auto&&...) { result = ec; });
+  ioc.restart();
+  ioc.run();
+  if (result) throw beast::system_error(result);
+}
+
 struct HttpClient::Impl {
   net::io_context ioc;
   beast::tcp_stream stream{ioc};
@@ -56,7 +67,7 @@ HttpResponse HttpClient::request(const std::string& method, const std::string& t
         tcp::resolver resolver(impl_->ioc);
         auto endpoints = resolver.resolve(host_, port_);
         impl_->stream.expires_after(timeout);
-        impl_->stream.connect(endpoints);
+        run_one(impl_->ioc, [&](auto done) { impl_->stream.async_connect(endpoints, done); });
         impl_->connected = true;
       }
       http::request<http::string_body> req{http::string_to_verb(method), target, 11};
@@ -67,10 +78,10 @@ HttpResponse HttpClient::request(const std::string& method, const std::string& t
       req.body() = body;
       req.prepare_payload();
       impl_->stream.expires_after(timeout);
-      http::write(impl_->stream, req);
+      run_one(impl_->ioc, [&](auto done) { http::async_write(impl_->stream, req, done); });
       http::response_parser<http::string_body> parser;
       parser.body_limit(1ull << 30);
-      http::read(impl_->stream, impl_->buffer, parser);
+      run_one(impl_->ioc, [&](auto done) { http::async_read(impl_->stream, impl_->buffer, parser, done); });
       auto res = parser.release();
       HttpResponse out;
       out.status = static_cast<int>(res.result_int());

@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# The whole product on the real KITTI 00 trajectory (all 4,541 scans), simulated by pl-sim: the map
+# from the epoch-0 drive's ground-truth poses -> tiles -> pl-server -> pl-localize over HTTP with 16
+# of 64 beams and wheel-encoder odometry -> pl-eval ape. Three drives: the same epoch with 360 deg,
+# with 180 deg (the rear half blocked), and six months later (epoch 1) with 30 moving trucks.
+#   bench/localize_kitti00.sh BIN_DIR WORK_DIR [FRAMES]
+set -euo pipefail
+bin=${1:?usage: bench/localize_kitti00.sh BIN_DIR WORK_DIR [FRAMES]}
+work=${2:?usage: bench/localize_kitti00.sh BIN_DIR WORK_DIR [FRAMES]}
+frames=${3:-}
+root=$(cd "$(dirname "$0")/.." && pwd)
+data=$("$root/tools/shared-data.sh" || true)
+traj="$data/kitti-trajectories/00.txt"
+if [[ -z "$data" || ! -f "$traj" ]]; then
+  echo "(skipped: the KITTI 00 trajectory is not beside the repository)"
+  exit 0
+fi
+mkdir -p "$work"
+work=$(cd "$work" && pwd)
+tag="k00${frames:+-$frames}"
+frame_flag=()
+[[ -n "$frames" ]] && frame_flag=(--frames "$frames")
+
+export PL_NO_PROGRESS=1
+t0=$(date +%s)
+if [[ ! -f "$work/$tag/done" ]]; then
+  rm -rf "$work/$tag"
+  mkdir -p "$work/$tag"
+  echo "simulating the epoch-0 drive and the epoch-1 drive with 30 trucks ($([[ -n "$frames" ]] && echo "$frames" || echo all) frames) ..."
+  "$bin/pl-sim" --trajectory "$traj" "${frame_flag[@]}" --seed 1 --epoch 0 --out "$work/$tag/e0" >/dev/null
+  "$bin/pl-sim" --trajectory "$traj" "${frame_flag[@]}" --seed 1 --epoch 1 --traffic 30 --truck-share 1.0 \
+    --out "$work/$tag/e1" >/dev/null
+  echo "building the map from the epoch-0 drive ..."
+  "$bin/pl-map" build --dataset "$work/$tag/e0" --poses gt --out "$work/$tag/map.pcd" >/dev/null
+  "$bin/pl-map" tile --cloud "$work/$tag/map.pcd" --db "$work/$tag/maps.sqlite" --map k00 >/dev/null
+  "$bin/pl-map" publish --db "$work/$tag/maps.sqlite" --map k00 --version 1 >/dev/null
+  touch "$work/$tag/done"
+fi
+echo "data ready in $(( $(date +%s) - t0 )) s: $("$bin/pl-map" info --db "$work/$tag/maps.sqlite" --map k00 | head -1)"
+
+"$bin/pl-server" --db "$work/$tag/maps.sqlite" --listen 127.0.0.1:0 --threads 1 >"$work/$tag/server.log" 2>&1 &
+server=$!
+trap 'kill $server 2>/dev/null || true' EXIT
+url=""
+for _ in $(seq 100); do
+  url=$(grep -o 'http://127.0.0.1:[0-9]*' "$work/$tag/server.log" | head -1 || true)
+  [[ -n "$url" ]] && break
+  sleep 0.1
+done
+[[ -n "$url" ]] || { cat "$work/$tag/server.log"; exit 1; }
+
+run() {  # name drive extra-flags...
+  local name=$1 drive=$2
+  shift 2
+  rm -f "$work/$tag/cache-$name.sqlite"*
+  "$bin/pl-localize" --dataset "$work/$tag/$drive" --server "$url" --map k00 --lidar-beams 16 --odometry encoder \
+    --init gps --cache "$work/$tag/cache-$name.sqlite" "$@" \
+    --out "$work/$tag/$name.tum" --kitti-out "$work/$tag/$name.txt" --timing "$work/$tag/$name.csv" >"$work/$tag/$name.log"
+  "$bin/pl-eval" ape --json --est "$work/$tag/$name.txt" --gt "$work/$tag/$drive/poses.txt" >"$work/$tag/$name.json"
+  "$bin/pl-eval" timing --json --csv "$work/$tag/$name.csv" --column registration_ms >"$work/$tag/$name-timing.json"
+  python3 - "$name" "$work/$tag/$name" <<'PY'
+import json, re, sys
+name, base = sys.argv[1], sys.argv[2]
+a = json.load(open(base + ".json"))
+t = json.load(open(base + "-timing.json"))
+log = open(base + ".log").read()
+status = re.search(r"status: (.*);", log)
+hz = re.search(r"\(([\d.]+) Hz", log)
+print(f"  {name:<16} APE mean {a['mean']:.3f} / median {a['median']:.3f} / RMSE {a['rmse']:.3f} / max {a['max']:.3f} m, "
+      f"coverage {100 * a['coverage']:.1f} %; registration median {t['p50']:.2f} ms, p99 {t['p99']:.2f} ms; "
+      f"fused {hz[1] if hz else '?'} Hz; {status[1] if status else ''}")
+PY
+}
+
+echo "pl-localize over HTTP, 16 of 64 beams, encoder odometry (paper, KITTI 00: 0.228 / 0.142 / 0.325 m):"
+run same-epoch e0
+run fov180 e0 --fov 180
+run epoch1-trucks e1
+kill -TERM $server && wait $server || true
+trap - EXIT

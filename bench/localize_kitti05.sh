@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Registration on the paper's protocol on the real drive 0005 (KITTI raw 2011_09_26, 154 HDL-64E
+# scans, OXTS ground truth): the map is the even-numbered scans merged at their ground-truth poses
+# (0.2 m voxels, tiled into a SQLite map store); the odd-numbered scans are localized against it with
+# 16 of the 64 beams, from the first odd scan's ground-truth pose, on constant-velocity prediction.
+# bench_localize runs ours and the PCL registrations side by side in one run; then the whole product
+# (pl-localize + pl-eval ape) on the same protocol.
+#   bench/localize_kitti05.sh BIN_DIR WORK_DIR [--quick N]
+# The map is prepared once into WORK_DIR/k05. Without the real data it says so and stops (exit 0).
+set -euo pipefail
+bin=${1:?usage: localize_kitti05.sh BIN_DIR WORK_DIR [--quick N]}
+work=${2:?usage: localize_kitti05.sh BIN_DIR WORK_DIR [--quick N]}
+shift 2
+quick=""
+if [[ "${1:-}" == "--quick" ]]; then quick=${2:?--quick takes a number of scans}; fi
+root=$(cd "$(dirname "$0")/.." && pwd)
+data=$("$root/tools/shared-data.sh" 2>/dev/null || true)
+drive="$data/kitti-raw-2011_09_26_drive_0005_sync"
+if [[ -z "$data" || ! -d "$drive/velodyne_points/data" ]]; then
+  echo "bench_localize: skipped, the real data is absent (tools/shared-data.sh finds no drive 0005)"
+  exit 0
+fi
+k05="$work/k05"
+mkdir -p "$k05"
+k05=$(cd "$k05" && pwd)
+
+# The map: even scans at their ground-truth poses, 0.2 m voxels, tiles in a SQLite store (once).
+if [[ ! -f "$k05/maps.sqlite" ]]; then
+  echo "preparing the map of the even scans in $k05 (once)"
+  rm -f "$k05/maps.sqlite.partial"*
+  "$bin/pl-map" build --dataset "$drive" --poses gt --every 2 --out "$k05/even.pcd" >/dev/null
+  "$bin/pl-map" tile --cloud "$k05/even.pcd" --db "$k05/maps.sqlite.partial" --map k05 >/dev/null
+  "$bin/pl-map" publish --db "$k05/maps.sqlite.partial" --map k05 --version 1 >/dev/null
+  mv "$k05/maps.sqlite.partial" "$k05/maps.sqlite"
+fi
+
+# Ours against PCL, scan by scan, one thread.
+export OMP_NUM_THREADS=1
+"$bin/bench_localize" "$drive" "$k05/maps.sqlite" --map k05 ${quick:+--quick "$quick"}
+
+# The whole product on the same protocol: pl-localize on the odd scans, pl-eval against their
+# ground truth (every second line of the drive's poses, from the second: frames 1, 3, 5, ...).
+echo
+echo "whole product: pl-localize --lidar-beams 16 --scans odd --odometry lidar --init gt, then pl-eval ape"
+"$bin/pl-dataset" poses "$drive" --out "$k05/gt.txt" >/dev/null
+awk 'NR % 2 == 0' "$k05/gt.txt" | head -n "${quick:-1000000}" >"$k05/gt_odd.txt"
+export PL_NO_PROGRESS=1
+"$bin/pl-localize" --dataset "$drive" --db "$k05/maps.sqlite" --map k05 --lidar-beams 16 --scans odd --odometry lidar \
+  --init gt ${quick:+--count "$quick"} --out "$k05/odd.tum" --kitti-out "$k05/odd.txt" --timing "$k05/odd_timing.csv"
+"$bin/pl-eval" ape --est "$k05/odd.txt" --gt "$k05/gt_odd.txt"

@@ -1,0 +1,65 @@
+// Fusion of odometry and the late-arriving LiDAR results: a steady-state Kalman filter.
+//
+// The state is the correction C that takes the odometry frame into the map: the pose at any time t
+// is X(t) = C * O(t), O the odometry's pose at t. A LiDAR result belongs to its scan's time ts, not
+// to the time it is ready: the innovation is taken against X(ts) (the odometry buffer is kept for
+// that), a constant gain per axis of the vehicle frame moves X(ts) toward the measurement, and C is
+// re-derived from it -- every later pose, already-buffered odometry included, is re-propagated by that.
+// The gain is the steady state of the Riccati recursion for a random walk of the odometry error per
+// scan interval (process noise) observed by LiDAR (measurement noise), axis by axis.
+// Without odometry (or where it has a gap) the prediction is constant-velocity "momentum" from the
+// last two corrected scan poses.
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <array>
+#include <optional>
+#include <vector>
+
+#include "pl/client/odometry.hpp"
+
+namespace pl::client {
+
+struct FusionConfig {
+  // Standard deviations per scan interval, vehicle frame: x (along), y (across), z, roll, pitch, yaw.
+  // Wheel odometry knows nothing of z, roll and pitch: large process noise, the LiDAR rules them.
+  std::array<double, 6> odometry_sigma = {0.03, 0.02, 1.0, 0.1, 0.1, 0.004};
+  std::array<double, 6> lidar_sigma = {0.02, 0.02, 0.02, 0.003, 0.003, 0.002};
+  // Momentum: the velocity over this many scan intervals (more smooths the registration noise that
+  // a two-pose velocity would double, fewer follows acceleration sooner).
+  int momentum_window = 3;
+};
+
+// Steady-state gain per axis: K = P / (P + R), P the predicted variance solving P = (1 - K) P + Q.
+std::array<double, 6> steady_state_gain(const FusionConfig& cfg);
+
+class Fusion {
+ public:
+  explicit Fusion(const FusionConfig& cfg = {});
+  // Starts at `pose` at time t. `odometry` may be nullptr (momentum only); it must outlive this.
+  void reset(const Eigen::Isometry3d& pose, double t, const OdometryBuffer* odometry);
+  bool initialized() const { return initialized_; }
+  // The pose at t: odometry when it covers t, else momentum.
+  Eigen::Isometry3d predict(double t) const;
+  bool odometry_covers(double t) const;
+  // A LiDAR result for the scan taken at ts. Returns the fused pose at ts.
+  Eigen::Isometry3d correct(double ts, const Eigen::Isometry3d& measured);
+  // Marks a scan time where no LiDAR result was fused (keeps momentum going from the prediction).
+  void coast(double ts);
+  const std::array<double, 6>& gain() const { return gain_; }
+
+ private:
+  std::array<double, 6> gain_;
+  const OdometryBuffer* odometry_ = nullptr;
+  bool initialized_ = false;
+  bool have_correction_ = false;
+  Eigen::Isometry3d correction_ = Eigen::Isometry3d::Identity();  // map_from_odometry
+  int window_;
+  // The last scan-time poses, oldest first, for momentum.
+  std::vector<double> times_;
+  std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>> poses_;
+  void remember(double ts, const Eigen::Isometry3d& x);
+};
+
+}  // namespace pl::client

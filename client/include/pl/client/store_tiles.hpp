@@ -1,0 +1,33 @@
+// Tiles straight from a local map store (SQLite, no server): for benchmarks, tests and localizing
+// against a map on disk. Decoded tiles are kept by content hash.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "pl/client/roi_map.hpp"
+
+namespace pl::client {
+
+class StoreTiles {
+ public:
+  // The map's current version unless `version` > 0. Throws pl::Error naming what is missing.
+  StoreTiles(const std::string& db_path, const std::string& map, long long version = 0);
+  ~StoreTiles();
+  double tile_size() const { return tile_size_; }
+  long long version() const { return version_; }
+  // Every tile of the version within `radius` of `center`, decoded.
+  std::vector<RoiMap::TileRef> near(const Eigen::Vector2d& center, double radius);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  double tile_size_ = 0;
+  long long version_ = 0;
+};
+
+}  // namespace pl::client

@@ -1,0 +1,111 @@
+// The localizer's tile client: keeps the decoded map tiles around the vehicle in memory, fetched from
+// pl-server on one background thread so that the localization loop never waits on the network.
+//
+// - The map version is pinned for the drive: the configured one, or the map's current version at
+//   start (with the server down: the version last used from the disk cache). It changes only through
+//   pin_version().
+// - For the focus (where the vehicle is, and where it is predicted to be soon) the thread asks the
+//   server which tiles lie within radius_m (ROI queries over one kept-alive HTTP/1.1 connection, with
+//   have= naming the tiles it already knows), then loads each missing tile nearest first: from the
+//   disk cache when there, else GET /v1/blobs/{hash}. Bytes are checked against their SHA-256 before
+//   they are decoded, stored or kept.
+// - The disk cache (optional, SQLite) keeps tile bytes, the version's manifest and every key -> hash
+//   row learned, so that a restarted client localizes with the server down. A cache entry whose bytes
+//   no longer match their hash is dropped and fetched again, never decoded into the map.
+// - Memory holds at most memory_mb of decoded tiles; to make room the thread evicts the least
+//   recently used tiles outside the focus discs first, then focus tiles farther than the one it loads.
+// - While the server is down, slow or answering errors the thread retries with exponential backoff
+//   (with jitter), keeps serving what memory and disk hold, and says what is wrong in status().
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "pl/common/tile_codec.hpp"
+#include "pl/common/tile_key.hpp"
+
+namespace pl::client {
+
+// One decoded tile held in memory.
+struct MapTile {
+  TileKey key;
+  std::string hash;  // content hash (the server's ETag): SHA-256 of the Draco bytes, 64 lowercase hex
+  std::shared_ptr<const TileCloud> cloud;  // decoded points (map ENU frame), normals, intensity
+  std::size_t bytes = 0;                   // Draco bytes
+};
+
+// What a decoded tile counts against TileClientConfig::memory_mb: 24 B per point, 12 per normal,
+// 4 per intensity.
+std::size_t decoded_size(const TileCloud& cloud);
+
+struct TileClientConfig {
+  std::string server;                // "http://127.0.0.1:8080"
+  std::string map;                   // map name
+  std::optional<long long> version;  // pinned version; default: the map's current version at start
+                                     // (or, with the server down, the version last used from the disk cache)
+  std::string cache_path;            // SQLite disk cache file; empty = no disk cache
+  double memory_mb = 256;            // bound on decoded tiles in memory (MiB, see decoded_size)
+  double radius_m = 100;             // keep tiles within this radius of the focus (and of the look-ahead point)
+  double timeout_s = 2.0;            // per request
+  double retry_min_s = 0.2, retry_max_s = 5.0;  // exponential backoff while the server is down/erroring
+  std::string token;                 // bearer token when the server requires one for reads
+};
+
+struct TileClientStatus {
+  bool ready = false;   // a version and tile size are known (from the server or the cache)
+  bool online = false;  // the last request to the server succeeded
+  long long version = 0;
+  double tile_size = 0;
+  std::size_t tiles_in_memory = 0, bytes_in_memory = 0;  // bytes: decoded_size of the tiles held
+  std::size_t fetched = 0;    // tiles fetched from the server
+  std::size_t from_disk = 0;  // tiles loaded from the disk cache
+  std::size_t failures = 0;   // requests that failed (unreachable, timeout, error status, bad bytes)
+  std::size_t retries = 0;    // requests sent again after a failure (one per backoff step)
+  std::size_t corrupt = 0;    // disk cache entries dropped because their bytes no longer matched
+  std::size_t evicted = 0;    // tiles dropped from memory to stay within memory_mb
+  std::string last_error;     // the last problem, naming what to do; empty when fine (cleared by
+                              // the next successful request)
+};
+
+class TileClient {
+ public:
+  // Checks the configuration and opens the disk cache (throws pl::Error naming the problem), then
+  // starts the background thread. Never blocks on the network.
+  explicit TileClient(TileClientConfig cfg);
+  ~TileClient();  // stops and joins the thread (waits for at most one request's timeout)
+  TileClient(const TileClient&) = delete;
+  TileClient& operator=(const TileClient&) = delete;
+
+  // Until a version and the tile size are known (from the server or the disk cache). Returns whether.
+  bool wait_ready(double timeout_s);
+
+  // Where the vehicle is and where it is predicted to be soon: the background thread fetches,
+  // verifies, caches, decodes and keeps every tile within radius_m of either point, nearest first.
+  // Cheap: call it every scan.
+  void set_focus(const Eigen::Vector2d& now, const Eigen::Vector2d& ahead);
+
+  // Snapshot of the decoded tiles in memory whose box intersects the disc, ordered by key. Never
+  // blocks on the network.
+  std::vector<MapTile> tiles_near(const Eigen::Vector2d& center, double radius) const;
+
+  // For start-up: also loads the disc (as a focus) and blocks until every tile of it that exists in
+  // the pinned version is in memory, or the timeout. Returns whether complete. Offline it completes
+  // only for discs the disk cache knows (the keys a server answer covered).
+  bool wait_for(const Eigen::Vector2d& center, double radius, double timeout_s);
+
+  // Switches to another version of the map: memory is emptied and filled again for the focus
+  // (from the disk cache where the versions share tiles).
+  void pin_version(long long version);
+
+  TileClientStatus status() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace pl::client

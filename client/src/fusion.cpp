@@ -1,0 +1,117 @@
+#include "pl/client/fusion.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace pl::client {
+namespace {
+
+Eigen::Vector3d log_so3(const Eigen::Matrix3d& R) {
+  const Eigen::AngleAxisd aa(R);
+  return aa.angle() * aa.axis();
+}
+
+Eigen::Matrix3d exp_so3(const Eigen::Vector3d& w) {
+  const double a = w.norm();
+  if (a < 1e-15) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
+}
+
+// a * (a^-1 b)^s: s = 1 gives b, s = 2 continues the motion from a to b once more.
+Eigen::Isometry3d extrapolate(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double s) {
+  const Eigen::Isometry3d d = a.inverse() * b;
+  Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
+  step.linear() = exp_so3(s * log_so3(d.linear()));
+  step.translation() = s * d.translation();
+  return a * step;
+}
+
+}  // namespace
+
+std::array<double, 6> steady_state_gain(const FusionConfig& cfg) {
+  std::array<double, 6> k{};
+  for (int i = 0; i < 6; ++i) {
+    const double q = cfg.odometry_sigma[i] * cfg.odometry_sigma[i];
+    const double r = cfg.lidar_sigma[i] * cfg.lidar_sigma[i];
+    if (r <= 0) {
+      k[i] = 1.0;
+      continue;
+    }
+    // Predicted variance P- solves P-^2 - q P- - q r = 0.
+    const double p = 0.5 * (q + std::sqrt(q * q + 4.0 * q * r));
+    k[i] = p / (p + r);
+  }
+  return k;
+}
+
+Fusion::Fusion(const FusionConfig& cfg) : gain_(steady_state_gain(cfg)), window_(std::max(1, cfg.momentum_window)) {}
+
+void Fusion::reset(const Eigen::Isometry3d& pose, double t, const OdometryBuffer* odometry) {
+  odometry_ = odometry;
+  initialized_ = true;
+  times_.assign(1, t);
+  poses_.assign(1, pose);
+  have_correction_ = false;
+  if (auto o = odometry_ ? odometry_->at(t) : std::nullopt) {
+    correction_ = pose * o->inverse();
+    have_correction_ = true;
+  }
+}
+
+bool Fusion::odometry_covers(double t) const {
+  return odometry_ && have_correction_ && odometry_->at(t).has_value();
+}
+
+Eigen::Isometry3d Fusion::predict(double t) const {
+  if (odometry_ && have_correction_)
+    if (auto o = odometry_->at(t)) return correction_ * *o;
+  // Momentum: odometry increments are missing, keep the recent velocity.
+  if (poses_.size() < 2 || times_.back() <= times_.front()) return poses_.back();
+  return extrapolate(poses_.front(), poses_.back(), (t - times_.front()) / (times_.back() - times_.front()));
+}
+
+void Fusion::remember(double ts, const Eigen::Isometry3d& x) {
+  if (ts <= times_.back()) {  // the same scan time again: replace
+    times_.back() = ts;
+    poses_.back() = x;
+    return;
+  }
+  times_.push_back(ts);
+  poses_.push_back(x);
+  if (static_cast<int>(poses_.size()) > window_ + 1) {
+    times_.erase(times_.begin());
+    poses_.erase(poses_.begin());
+  }
+}
+
+Eigen::Isometry3d Fusion::correct(double ts, const Eigen::Isometry3d& measured) {
+  const Eigen::Isometry3d predicted = predict(ts);
+  Eigen::Isometry3d fused = measured;
+  const auto o = odometry_ ? odometry_->at(ts) : std::nullopt;
+  if (o && have_correction_) {
+    // Innovation in the vehicle frame at ts, scaled axis by axis.
+    const Eigen::Isometry3d d = predicted.inverse() * measured;
+    Eigen::Vector3d v = d.translation();
+    Eigen::Vector3d w = log_so3(d.linear());
+    // Rotation vector components about x, y, z are roll, pitch, yaw for small angles.
+    for (int i = 0; i < 3; ++i) {
+      v[i] *= gain_[i];
+      w[i] *= gain_[3 + i];
+    }
+    Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
+    step.linear() = exp_so3(w);
+    step.translation() = v;
+    fused = predicted * step;
+  }
+  // Without odometry the measurement is the only information about the motion: it is taken whole.
+  if (o) {
+    correction_ = fused * o->inverse();
+    have_correction_ = true;
+  }
+  remember(ts, fused);
+  return fused;
+}
+
+void Fusion::coast(double ts) { remember(ts, predict(ts)); }
+
+}  // namespace pl::client

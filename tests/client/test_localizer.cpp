@@ -1,0 +1,398 @@
+// The localizer's parts and the whole of it: the ROI map's voxel hash against brute force, encoder
+// odometry, the steady-state filter's gain and its correction at the scan's time, point-to-plane ICP
+// on synthetic scenes (accuracy, moving objects, degenerate geometry), the start-up search, and
+// pl-localize end to end over HTTP on a simulated drive (accuracy, the server killed mid-drive).
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <random>
+#include <thread>
+
+#include "pl/client/localizer.hpp"
+#include "pl/client/store_tiles.hpp"
+#include "pl/common/dataset.hpp"
+#include "pl/common/error.hpp"
+#include "pl/common/pose.hpp"
+#include "server_process.hpp"
+#include "test_util.hpp"
+
+namespace {
+
+using pl::client::RoiMap;
+using TileRef = RoiMap::TileRef;
+
+// --- synthetic scenes -----------------------------------------------------------------------------
+
+struct Surface {
+  Eigen::Vector3d origin, u, v;  // a rectangle origin + a u + b v, a, b in [0, 1]
+};
+
+// A street: ground, two building fronts with doorways and bays, a few boxes (parked cars, kiosks)
+// and poles, sampled every `step` metres, with normals.
+std::vector<Surface> street(bool with_cross_structure = true) {
+  std::vector<Surface> s;
+  s.push_back({{-60, -12, 0}, {120, 0, 0}, {0, 24, 0}});  // ground
+  for (double side : {-8.0, 8.0})
+    for (double x = -60; x < 60; x += 12) {
+      const double depth = std::fmod(std::abs(x), 24.0) < 1 ? 1.5 : 0.0;  // bays every other block
+      s.push_back({{x, side + (side > 0 ? depth : -depth), 0}, {10, 0, 0}, {0, 0, 8}});
+      if (with_cross_structure) s.push_back({{x + 10, side, 0}, {0, side > 0 ? 3.0 : -3.0, 0}, {0, 0, 8}});  // recesses
+    }
+  if (with_cross_structure)
+    for (double x : {-35.0, -12.0, 7.0, 26.0, 44.0}) {  // boxes: parked vans
+      const double y = (static_cast<int>(x) % 2 == 0) ? 4.5 : -5.5;
+      s.push_back({{x, y, 0}, {4, 0, 0}, {0, 0, 2}});
+      s.push_back({{x, y + 1.8, 0}, {4, 0, 0}, {0, 0, 2}});
+      s.push_back({{x, y, 0}, {0, 1.8, 0}, {0, 0, 2}});
+      s.push_back({{x + 4, y, 0}, {0, 1.8, 0}, {0, 0, 2}});
+      s.push_back({{x, y, 2}, {4, 0, 0}, {0, 1.8, 0}});
+    }
+  return s;
+}
+
+std::vector<TileRef> tiles_of(const std::vector<Surface>& surfaces, double step, double tile_size,
+                              const Eigen::Vector3d& offset = Eigen::Vector3d::Zero()) {
+  std::map<pl::TileKey, pl::TileCloud> tiles;
+  const pl::TileGrid grid(tile_size);
+  for (const Surface& s : surfaces) {
+    const Eigen::Vector3f n = s.u.cross(s.v).normalized().cast<float>();
+    const int nu = std::max(1, static_cast<int>(s.u.norm() / step)), nv = std::max(1, static_cast<int>(s.v.norm() / step));
+    for (int i = 0; i <= nu; ++i)
+      for (int j = 0; j <= nv; ++j) {
+        const Eigen::Vector3d p = offset + s.origin + s.u * (double(i) / nu) + s.v * (double(j) / nv);
+        auto& t = tiles[grid.key_of(p.x(), p.y())];
+        t.points.push_back(p);
+        t.normals.push_back(n);
+      }
+  }
+  std::vector<TileRef> out;
+  for (auto& [key, cloud] : tiles)
+    out.push_back({key, std::to_string(key.tx) + "," + std::to_string(key.ty) + "/" + std::to_string(cloud.size()),
+                   std::make_shared<const pl::TileCloud>(std::move(cloud))});
+  return out;
+}
+
+// A LiDAR-like scan of the surfaces from `sensor` (map frame): points every `step` metres on the
+// surfaces within `range`, in the sensor frame, with 1 cm noise.
+std::vector<Eigen::Vector3f> scan_of(const std::vector<Surface>& surfaces, const Eigen::Isometry3d& sensor,
+                                     double step, double range, unsigned seed,
+                                     const Eigen::Vector3d& offset = Eigen::Vector3d::Zero()) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  std::uniform_real_distribution<double> jitter(0.0, 1.0);
+  std::vector<Eigen::Vector3f> out;
+  const Eigen::Isometry3d inv = sensor.inverse();
+  for (const Surface& s : surfaces) {
+    const int nu = std::max(1, static_cast<int>(s.u.norm() / step)), nv = std::max(1, static_cast<int>(s.v.norm() / step));
+    for (int i = 0; i < nu; ++i)
+      for (int j = 0; j < nv; ++j) {
+        const Eigen::Vector3d p = offset + s.origin + s.u * ((i + jitter(rng)) / nu) + s.v * ((j + jitter(rng)) / nv);
+        if ((p - sensor.translation()).norm() > range) continue;
+        const Eigen::Vector3d q = inv * p + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+        out.push_back(q.cast<float>());
+      }
+  }
+  return out;
+}
+
+// --- the ROI map ----------------------------------------------------------------------------------
+
+TEST(RoiMap, NearestEqualsBruteForceWithinHalfACell) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  pl::TileCloud cloud;
+  const Eigen::Vector3d far(350000.0, -4200000.0, 120.0);  // large map coordinates stay exact
+  for (int i = 0; i < 20000; ++i) {
+    cloud.points.push_back(far + Eigen::Vector3d(40 * u(rng), 40 * u(rng), 3 * u(rng)));
+    cloud.normals.push_back(Eigen::Vector3f::UnitZ());
+  }
+  // Split into the tiles of a 20 m grid.
+  const pl::TileGrid grid(20.0);
+  std::map<pl::TileKey, pl::TileCloud> split;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    auto& t = split[grid.key_of(cloud.points[i].x(), cloud.points[i].y())];
+    t.points.push_back(cloud.points[i]);
+    t.normals.push_back(cloud.normals[i]);
+  }
+  std::vector<TileRef> tiles;
+  for (auto& [k, c] : split) tiles.push_back({k, "h" + std::to_string(k.tx) + "_" + std::to_string(k.ty), std::make_shared<const pl::TileCloud>(c)});
+  pl::client::RoiMapConfig cfg;
+  cfg.cell_m = 1.0;
+  RoiMap map(20.0, far, cfg);
+  EXPECT_EQ(map.update(tiles), tiles.size());
+  EXPECT_EQ(map.points(), cloud.size());
+  int checked = 0;
+  for (int q = 0; q < 3000; ++q) {
+    const Eigen::Vector3d p = far + Eigen::Vector3d(40 * u(rng), 40 * u(rng), 3 * u(rng));
+    double best = 1e9;
+    for (const auto& c : cloud.points) best = std::min(best, (c - p).squaredNorm());
+    const auto nb = map.nearest((p - map.anchor()).cast<float>(), 0.25f);
+    if (best < 0.25 - 1e-4) {
+      ASSERT_NE(nb.point, nullptr);
+      EXPECT_NEAR(nb.dist2, best, 1e-4);
+      ++checked;
+    } else if (best > 0.25 + 1e-4) {
+      EXPECT_EQ(nb.point, nullptr);
+    }
+  }
+  EXPECT_GT(checked, 1000);
+}
+
+TEST(RoiMap, TilesEnterAndLeaveWithoutATrace) {
+  const auto tiles = tiles_of(street(), 0.2, 20.0);
+  RoiMap map(20.0, Eigen::Vector3d::Zero());
+  map.update(tiles);
+  const std::size_t all_cells = map.cells(), all_points = map.points();
+  ASSERT_GT(all_cells, 1000u);
+  // Keep every other tile, then bring them all back: the same cells and points as before.
+  std::vector<TileRef> half;
+  for (std::size_t i = 0; i < tiles.size(); i += 2) half.push_back(tiles[i]);
+  EXPECT_EQ(map.update(half), tiles.size() - half.size());
+  EXPECT_LT(map.cells(), all_cells);
+  for (std::size_t i = 1; i < tiles.size(); i += 2) {  // no point of a dropped tile is found
+    const Eigen::Vector3d p = tiles[i].cloud->points[tiles[i].cloud->size() / 2];
+    const auto nb = map.nearest((p - map.anchor()).cast<float>(), 1e-6f);
+    EXPECT_EQ(nb.point, nullptr);
+  }
+  map.update(tiles);
+  EXPECT_EQ(map.cells(), all_cells);
+  EXPECT_EQ(map.points(), all_points);
+  // A tile whose content changed (new hash) is replaced.
+  auto changed = tiles;
+  changed[0].hash += "-v2";
+  EXPECT_EQ(map.update(changed), 2u);
+  EXPECT_EQ(map.update({}), tiles.size());
+  EXPECT_EQ(map.cells(), 0u);
+  EXPECT_EQ(map.points(), 0u);
+}
+
+// --- odometry and fusion -------------------------------------------------------------------------
+
+TEST(Odometry, DifferentialDriveFollowsACircle) {
+  // Wheels 1.6 m apart driving a circle of radius 10 m (centre of the axle) at 100 Hz.
+  const double L = 1.6, R = 10.0, w = 0.5;  // rad/s
+  std::vector<pl::EncoderSample> samples;
+  for (int i = 0; i <= 1000; ++i) {
+    const double t = i * 0.01;
+    samples.push_back({t, (R - L / 2) * w * t, (R + L / 2) * w * t});
+  }
+  const auto odo = pl::client::odometry_from_encoders(samples, L);
+  for (int i : {250, 500, 1000}) {
+    const double th = w * i * 0.01;
+    const Eigen::Isometry3d p = odo.pose(static_cast<std::size_t>(i));
+    EXPECT_NEAR(p.translation().x(), R * std::sin(th), 1e-6);
+    EXPECT_NEAR(p.translation().y(), R * (1 - std::cos(th)), 1e-6);
+    EXPECT_NEAR(pl::yaw_of(p), std::remainder(th, 2 * M_PI), 1e-9);
+  }
+  EXPECT_THROW(pl::client::odometry_from_encoders(samples, 0.0), pl::Error);
+}
+
+TEST(Fusion, GainIsTheRiccatiSteadyState) {
+  pl::client::FusionConfig cfg;
+  const auto k = pl::client::steady_state_gain(cfg);
+  for (int i = 0; i < 6; ++i) {
+    const double q = cfg.odometry_sigma[i] * cfg.odometry_sigma[i], r = cfg.lidar_sigma[i] * cfg.lidar_sigma[i];
+    double p = 1.0;  // iterate predict/update to convergence
+    double gain = 0;
+    for (int it = 0; it < 10000; ++it) {
+      const double pm = p + q;
+      gain = pm / (pm + r);
+      p = (1 - gain) * pm;
+    }
+    EXPECT_NEAR(k[i], gain, 1e-9) << "axis " << i;
+    EXPECT_GT(k[i], 0.0);
+    EXPECT_LE(k[i], 1.0);
+  }
+}
+
+TEST(Fusion, LateResultCorrectsAtTheScanTimeAndRepropagates) {
+  // Odometry: straight along x at 10 m/s with a 2 % scale error, 100 Hz, 2 s.
+  pl::client::OdometryBuffer odo;
+  for (int i = 0; i <= 200; ++i) odo.add(i * 0.01, pl::make_pose(10.2 * i * 0.01, 0, 0));
+  pl::client::Fusion f;
+  f.reset(pl::make_pose(100, 50, 0, 0, 0, M_PI / 2), 0.0, &odo);  // the vehicle heads +y in the map
+  const Eigen::Isometry3d before = f.predict(1.5);
+  EXPECT_NEAR(before.translation().y(), 50 + 15.3, 1e-9);
+  // The scan at t = 1.0 (its result arrives later): truth is 10 m/s, so y = 60 at t = 1.
+  const Eigen::Isometry3d truth = pl::make_pose(100, 60, 0, 0, 0, M_PI / 2);
+  const Eigen::Isometry3d fused = f.correct(1.0, truth);
+  const double k = f.gain()[0];  // along-track
+  EXPECT_NEAR(fused.translation().y(), 60.2 - k * 0.2, 1e-9);
+  // Later poses move with the odometry from the corrected scan-time pose.
+  const Eigen::Isometry3d after = f.predict(1.5);
+  EXPECT_NEAR(after.translation().y(), fused.translation().y() + 5.1, 1e-9);
+  EXPECT_NEAR(after.translation().x(), 100, 1e-9);
+  // Repeated results pull the estimate onto the truth.
+  for (int i = 11; i <= 20; ++i) f.correct(i * 0.1, pl::make_pose(100, 50 + i, 0, 0, 0, M_PI / 2));
+  EXPECT_NEAR(f.predict(2.0).translation().y(), 70.0, 0.01);
+}
+
+TEST(Fusion, MomentumWithoutOdometry) {
+  pl::client::Fusion f;
+  f.reset(pl::make_pose(0, 0, 0, 0, 0, 0.0), 0.0, nullptr);
+  for (int i = 1; i <= 4; ++i) f.correct(0.1 * i, pl::make_pose(1.0 * i, 0.1 * i * i * 0, 0, 0, 0, 0.02 * i));
+  const Eigen::Isometry3d p = f.predict(0.5);
+  EXPECT_NEAR(pl::yaw_of(p), 0.10, 1e-9);
+  EXPECT_NEAR(p.translation().norm(), 5.0, 0.01);
+}
+
+// --- registration ----------------------------------------------------------------------------------
+
+TEST(Icp, RecoversAnOffsetPoseOnAStreet) {
+  const auto surfaces = street();
+  RoiMap map(20.0, Eigen::Vector3d::Zero());
+  map.update(tiles_of(surfaces, 0.2, 20.0));
+  const Eigen::Isometry3d truth = pl::make_pose(3.0, 0.5, 1.8, 0.0, 0.0, 0.1);
+  const auto scan = scan_of(surfaces, truth, 0.5, 60.0, 1);
+  ASSERT_GT(scan.size(), 2000u);
+  const Eigen::Isometry3d guess = truth * pl::make_pose(0.25, -0.2, 0.1, 0.01, -0.01, 0.05);
+  const auto r = pl::client::register_scan(map, scan, guess);
+  EXPECT_TRUE(r.accepted) << r.reject_reason;
+  EXPECT_TRUE(r.converged);
+  EXPECT_LT((r.pose.translation() - truth.translation()).norm(), 0.02);
+  EXPECT_LT(pl::rotation_angle(r.pose.inverse() * truth), 0.002);
+  EXPECT_GT(r.inlier_share, 0.9);
+}
+
+TEST(Icp, PairsFartherThanDeltaAreDropped) {
+  // A third of the scan hits things the map does not have (a truck beside the sensor, people).
+  const auto surfaces = street();
+  RoiMap map(20.0, Eigen::Vector3d::Zero());
+  map.update(tiles_of(surfaces, 0.2, 20.0));
+  const Eigen::Isometry3d truth = pl::make_pose(-5.0, -1.0, 1.8, 0, 0, -0.05);
+  auto scan = scan_of(surfaces, truth, 0.5, 60.0, 2);
+  const std::size_t static_points = scan.size();
+  std::vector<Surface> truck = {{{-8, 1.5, 0.3}, {12, 0, 0}, {0, 0, 3.5}}, {{-8, 1.5, 3.8}, {12, 0, 0}, {0, 2.5, 0}}};
+  for (int k = 0; k < 3; ++k) {
+    const auto extra = scan_of(truck, truth, 0.12, 60.0, 10 + k);
+    scan.insert(scan.end(), extra.begin(), extra.end());
+  }
+  ASSERT_GT(scan.size(), static_points * 4 / 3);
+  const auto r = pl::client::register_scan(map, scan, truth * pl::make_pose(0.2, 0.15, 0, 0, 0, 0.03));
+  EXPECT_TRUE(r.accepted) << r.reject_reason;
+  EXPECT_LT((r.pose.translation() - truth.translation()).norm(), 0.03);
+  EXPECT_LT(r.inlier_share, 0.8);  // the truck's points found no pair
+}
+
+TEST(Icp, DegenerateCorridorIsRejected) {
+  // Ground and two endless parallel walls: nothing fixes the position along the corridor.
+  std::vector<Surface> corridor = {{{-60, -6, 0}, {120, 0, 0}, {0, 12, 0}},
+                                   {{-60, -6, 0}, {120, 0, 0}, {0, 0, 6}},
+                                   {{-60, 6, 0}, {120, 0, 0}, {0, 0, 6}}};
+  RoiMap map(20.0, Eigen::Vector3d::Zero());
+  map.update(tiles_of(corridor, 0.2, 20.0));
+  const Eigen::Isometry3d truth = pl::make_pose(0, 0, 1.8);
+  const auto r = pl::client::register_scan(map, scan_of(corridor, truth, 0.5, 40.0, 3), truth);
+  EXPECT_FALSE(r.accepted);
+  EXPECT_STREQ(r.reject_reason, "degenerate geometry");
+  EXPECT_LT(r.conditioning, 0.02);
+}
+
+TEST(Icp, ScanAwayFromTheMapIsRejected) {
+  const auto surfaces = street();
+  RoiMap map(20.0, Eigen::Vector3d::Zero());
+  map.update(tiles_of(surfaces, 0.2, 20.0));
+  const Eigen::Isometry3d truth = pl::make_pose(0, 0, 1.8);
+  const auto r = pl::client::register_scan(map, scan_of(surfaces, truth, 0.5, 40.0, 4), pl::make_pose(0, 0, 30.0));
+  EXPECT_FALSE(r.accepted);
+}
+
+TEST(Localizer, StartsFiveMetresAndThirtyDegreesOff) {
+  const auto surfaces = street();
+  const auto tiles = tiles_of(surfaces, 0.2, 20.0);
+  pl::client::LocalizerConfig cfg;
+  pl::client::Localizer loc(cfg, 20.0, [&](const Eigen::Vector2d&, double) { return tiles; });
+  const Eigen::Isometry3d truth = pl::make_pose(2.0, 0.5, 1.8, 0, 0, 0.05);
+  pl::Scan scan;
+  for (const auto& p : scan_of(surfaces, truth, 0.5, 60.0, 5)) scan.push_back({p.x(), p.y(), p.z(), 0.5f});
+  const Eigen::Isometry3d guess = truth * pl::make_pose(3.0, -4.0, 0.0, 0, 0, 30.0 * M_PI / 180.0);
+  ASSERT_TRUE(loc.start_near(guess, 0.0, nullptr, scan, {}));
+  EXPECT_LT((loc.pose_at(0.0).translation() - truth.translation()).norm(), 0.05);
+}
+
+// --- end to end: pl-sim -> pl-map -> pl-server -> pl-localize -> pl-eval ---------------------------
+
+// A short simulated drive and its map store, made once per build tree (tests run as separate
+// processes, possibly in parallel: made in a temporary folder, then renamed into place).
+std::string drive_and_map() {
+  const std::string dir = std::string(PL_BINARY_DIR) + "/test-data/localizer-drive-v1";
+  if (std::filesystem::exists(dir + "/done")) return dir;
+  pl::test::TempDir tmp;
+  const std::string d = tmp / "d";
+  auto sh = [](const std::string& cmd) {
+    const auto r = pl::test::run(cmd);
+    if (r.exit_code != 0) throw std::runtime_error(cmd + "\n" + r.output);
+  };
+  sh(pl::test::tool("pl-sim") + " --route loop --frames 60 --seed 5 --traffic 4 --out " + d + "/drive");
+  sh(pl::test::tool("pl-map") + " build --dataset " + d + "/drive --poses gt --out " + d + "/map.pcd");
+  sh(pl::test::tool("pl-map") + " tile --cloud " + d + "/map.pcd --db " + d + "/maps.sqlite --map town");
+  sh(pl::test::tool("pl-map") + " publish --db " + d + "/maps.sqlite --map town --version 1");
+  pl::test::write_file(d + "/done", "");
+  std::filesystem::create_directories(std::filesystem::path(dir).parent_path());
+  std::error_code ec;
+  std::filesystem::rename(d, dir, ec);  // another process may have won the race: fine
+  if (!std::filesystem::exists(dir + "/done")) throw std::runtime_error("could not make " + dir);
+  return dir;
+}
+
+nlohmann::json ape(const std::string& est, const std::string& gt) {
+  const auto r = pl::test::run(pl::test::tool("pl-eval") + " ape --json --est " + est + " --gt " + gt);
+  if (r.exit_code != 0) throw std::runtime_error(r.output);
+  return nlohmann::json::parse(r.output.substr(r.output.find('{')));
+}
+
+TEST(PlLocalize, OverHttpWithSixteenBeamsAndEncoders) {
+  const std::string data = drive_and_map();
+  const pl::test::TempDir dir;
+  std::filesystem::copy_file(data + "/maps.sqlite", dir / "maps.sqlite");
+  pl::test::ServerProcess server(dir / "maps.sqlite");
+  const auto r = pl::test::run(pl::test::tool("pl-localize") + " --dataset " + data + "/drive --server " + server.url() +
+                               " --map town --lidar-beams 16 --odometry encoder --init gps --cache " + (dir / "cache.sqlite") +
+                               " --out " + (dir / "poses.tum") + " --kitti-out " + (dir / "poses.txt") + " --timing " +
+                               (dir / "timing.csv"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("0 lost"), std::string::npos) << r.output;
+  const auto e = ape(dir / "poses.txt", data + "/drive/poses.txt");
+  EXPECT_EQ(e["matched"].get<int>(), 60);
+  EXPECT_LT(e["mean"].get<double>(), 0.05) << e.dump();
+  // Fused poses at the encoder's 100 Hz, timing one line per scan.
+  const auto tum = pl::read_tum_poses(dir / "poses.tum");
+  EXPECT_GT(tum.size(), 550u);
+  const std::string timing = pl::test::read_file(dir / "timing.csv");
+  EXPECT_EQ(std::count(timing.begin(), timing.end(), '\n'), 61);
+  EXPECT_NE(timing.find("registration_ms"), std::string::npos);
+}
+
+TEST(PlLocalize, ServerKilledMidDriveLocalizationContinuesOnTheCache) {
+  const std::string data = drive_and_map();
+  const pl::test::TempDir dir;
+  std::filesystem::copy_file(data + "/maps.sqlite", dir / "maps.sqlite");
+  auto server = std::make_unique<pl::test::ServerProcess>(dir / "maps.sqlite");
+  const std::string cmd = pl::test::tool("pl-localize") + " --dataset " + data + "/drive --server " + server->url() +
+                          " --map town --lidar-beams 16 --init gps --realtime --cache " + (dir / "cache.sqlite") +
+                          " --out " + (dir / "poses.tum") + " --kitti-out " + (dir / "poses.txt") + " > " + (dir / "out.txt");
+  std::thread drive([&] { pl::test::run(cmd); });
+  // The drive lasts 6 s in real time: the server dies 2 s in.
+  std::this_thread::sleep_for(std::chrono::seconds(2));
+  server->kill9();
+  drive.join();
+  const std::string out = pl::test::read_file(dir / "out.txt");
+  EXPECT_NE(out.find("60 scans"), std::string::npos) << out;
+  EXPECT_NE(out.find("0 lost"), std::string::npos) << out;
+  const auto e = ape(dir / "poses.txt", data + "/drive/poses.txt");
+  EXPECT_EQ(e["matched"].get<int>(), 60);
+  EXPECT_LT(e["mean"].get<double>(), 0.05) << e.dump();
+  // With the server gone, a second drive starts from the disk cache alone.
+  const auto again = pl::test::run(pl::test::tool("pl-localize") + " --dataset " + data + "/drive --server " + server->url() +
+                                   " --map town --lidar-beams 16 --init gps --count 20 --cache " + (dir / "cache.sqlite") +
+                                   " --out " + (dir / "again.tum") + " --kitti-out " + (dir / "again.txt"));
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("0 lost"), std::string::npos) << again.output;
+  EXPECT_LT(ape(dir / "again.txt", data + "/drive/poses.txt")["mean"].get<double>(), 0.05);
+}
+
+}  // namespace
