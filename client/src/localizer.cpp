@@ -143,7 +143,11 @@ bool search_pose(const std::vector<RoiMap::TileRef>& tiles, double tile_size, co
   wide.kernel_start_m = 2.0;
   wide.kernel_m = 0.5;
   wide.max_iterations = 12;
-  // Every seed against the coarse map.
+  // Every seed against the coarse map, with at most 400 of the scan's points (evenly taken): the
+  // seeds only have to find the right basin; the best five are refined with the whole scan.
+  std::vector<Eigen::Vector3f> sparse;
+  const std::size_t stride = std::max<std::size_t>(1, scan.size() / 400);
+  for (std::size_t i = 0; i < scan.size(); i += stride) sparse.push_back(scan[i]);
   struct Candidate {
     Eigen::Isometry3d pose;
     double share;
@@ -158,7 +162,7 @@ bool search_pose(const std::vector<RoiMap::TileRef>& tiles, double tile_size, co
       for (int k = -ny; k <= ny; ++k) {
         const Eigen::Vector3d p = guess.translation() + search.position_step_m * Eigen::Vector3d(ix, iy, 0);
         const Eigen::Isometry3d seed = make_pose(p.x(), p.y(), p.z(), 0, 0, yaw0 + k * search.yaw_step_deg * M_PI / 180.0);
-        const IcpResult r = register_scan(coarse, scan, seed, wide);
+        const IcpResult r = register_scan(coarse, sparse, seed, wide);
         coarse_results.push_back({r.pose, r.inlier_share / (0.05 + r.rms_m)});
       }
     }
