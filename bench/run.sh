@@ -26,3 +26,7 @@ if [[ -n "$data" ]]; then
 else
   echo "skipped: no real data (tools/shared-data.sh found none)"
 fi
+
+echo
+echo "== localize_kitti00: the whole product on the KITTI 00 trajectory, all 4,541 scans (pl-sim data)"
+bash "$(dirname "$0")/localize_kitti00.sh" "$bin" "$root/build/bench"
