@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <set>
 
 #include "pl/common/cli.hpp"
@@ -9,6 +10,7 @@
 #include "pl/common/error.hpp"
 #include "pl/common/progress.hpp"
 #include "pl/common/text.hpp"
+#include "pl/maps/loam.hpp"
 #include "pl/maps/map_builder.hpp"
 #include "pl/maps/push.hpp"
 #include "pl/schema/store.hpp"
@@ -18,9 +20,13 @@ namespace {
 const char* kUsage =
     "usage: pl-map COMMAND [options]\n"
     "\n"
-    "  build    --dataset DIR --poses gt --out map.pcd [--voxel 0.2] [--every N] [--max-range 80]\n"
-    "           merge a drive's scans at their ground-truth poses into a voxelized map (PCD in the\n"
-    "           dataset's world frame, its geodetic origin recorded in the header)\n"
+    "  build    --dataset DIR --out map.pcd [--poses gt|lidar] [--traj-out poses.txt] [--deskew auto|on|off]\n"
+    "           [--voxel 0.2] [--every N] [--max-range 80]\n"
+    "           merge a drive's scans at their ground-truth poses (gt) or at the poses of LiDAR odometry\n"
+    "           alone (lidar; started at the first ground-truth pose when there is one; deskew auto: on\n"
+    "           for recordings without meta.json) into a voxelized map (PCD in the dataset's world\n"
+    "           frame, its geodetic origin recorded in the header); --traj-out writes the LiDAR pose of\n"
+    "           every scan (KITTI format), line for line with the dataset\n"
     "  tile     --cloud FILE(.pcd|.ply|.bin) --db maps.sqlite --map NAME [--origin LAT,LON,ALT]\n"
     "           [--voxel 0.2] [--tile-size 20] [--normal-radius 0.6] [--max-error 0.005] [--note TEXT]\n"
     "           voxelize, estimate normals, cut into tiles, Draco-encode them and write a new staged\n"
@@ -43,20 +49,66 @@ int cmd_build(const pl::Args& a) {
   std::string dir = a.require("--dataset", "DIR (the drive to build the map from)");
   std::string poses = a.get_or("--poses", "gt");
   std::string out = a.require("--out", "FILE.pcd (where to write the map)");
+  auto traj_out = a.get("--traj-out");
+  std::string deskew = a.get_or("--deskew", "auto");
   pl::maps::MapBuildConfig cfg;
   cfg.voxel_m = a.get_double("--voxel", cfg.voxel_m);
   cfg.every = static_cast<std::size_t>(std::max<long long>(1, a.get_int("--every", 1)));
   cfg.scan.min_range_m = a.get_double("--min-range", 2.0);
   cfg.scan.max_range_m = a.get_double("--max-range", 80.0);
   a.finish();
-  if (poses != "gt") throw pl::Error("--poses takes gt (the G-LOAM builder with lidar poses comes later)");
+  if (poses != "gt" && poses != "lidar")
+    throw pl::Error("--poses takes gt (the dataset's ground truth) or lidar (LiDAR odometry alone), not " + poses);
+  if (deskew != "auto" && deskew != "on" && deskew != "off") throw pl::Error("--deskew takes auto, on or off, not " + deskew);
   pl::Dataset ds = pl::open_dataset(dir);
-  if (!ds.has_ground_truth()) throw pl::Error(ds.dir + ": --poses gt needs ground-truth poses (poses.txt or OXTS)");
+  if (ds.size() == 0) throw pl::Error(ds.dir + ": no scans");
+
+  pl::Trajectory placed;  // one LiDAR pose per scan of the dataset
+  std::optional<pl::GeoPoint> origin = ds.meta.origin;
+  if (poses == "gt") {
+    if (!ds.has_ground_truth()) throw pl::Error(ds.dir + ": --poses gt needs ground-truth poses (poses.txt or OXTS)");
+    placed = ds.ground_truth;
+  } else {
+    // The odometry runs over every scan (it needs them all to follow the drive; --every thins the map only).
+    pl::maps::LoamConfig lc;
+    // Real recordings (no meta.json: KITTI) sweep while the car moves; pl-sim's scans are taken at one pose.
+    lc.deskew = deskew == "on" || (deskew == "auto" && !ds.has_meta_file);
+    if (ds.meta.sensor.rate_hz > 0) lc.scan_period_s = 1.0 / ds.meta.sensor.rate_hz;
+    pl::maps::LoamOdometry odometry(lc);
+    // Started at the first ground-truth pose when there is one, so that the map lies in the dataset's
+    // world frame; otherwise in the first scan's frame, which has no geodetic origin.
+    if (ds.has_ground_truth())
+      odometry.start(ds.ground_truth.poses[0]);
+    else
+      origin.reset();
+    std::vector<double> ms;
+    std::size_t degenerate = 0;
+    pl::Progress bar("lidar odometry", ds.size());
+    for (std::size_t i = 0; i < ds.size(); ++i) {
+      pl::Scan scan = ds.load_scan(i);
+      pl::maps::LoamFrame f = odometry.add(scan, ds.rings(scan), ds.times[i]);
+      placed.poses.push_back(f.pose);
+      ms.push_back(f.ms);
+      degenerate += f.degenerate;
+      bar.update(i + 1);
+    }
+    bar.finish();
+    placed.times = ds.times;
+    std::sort(ms.begin(), ms.end());
+    std::printf("lidar odometry: %zu scans (deskew %s), median %.1f ms a scan, %zu degenerate%s\n", ds.size(), lc.deskew ? "on" : "off",
+                ms[ms.size() / 2], degenerate, ds.has_ground_truth() ? ", started at the first ground-truth pose" : ", in the first scan's frame");
+  }
+  if (traj_out) {
+    pl::Trajectory kitti = placed;
+    kitti.format = pl::PoseFormat::Kitti;
+    pl::write_kitti_poses(*traj_out, kitti);
+    std::printf("wrote %s: %zu LiDAR poses (%s), one per scan\n", traj_out->c_str(), kitti.size(), poses == "gt" ? "ground truth" : "lidar odometry");
+  }
   std::size_t scans = (ds.size() + cfg.every - 1) / cfg.every;
   pl::Progress bar("merging scans", scans);
-  pl::maps::MapCloud map = pl::maps::build_map_from_poses(ds, ds.ground_truth, cfg, [&](std::size_t done, std::size_t) { bar.update(done); });
+  pl::maps::MapCloud map = pl::maps::build_map_from_poses(ds, placed, cfg, [&](std::size_t done, std::size_t) { bar.update(done); });
   bar.finish();
-  pl::write_pcd(out, map.points, map.intensity, ds.meta.origin);
+  pl::write_pcd(out, map.points, map.intensity, origin);
   std::printf("wrote %s: %zu points from %zu scans at %.2f m voxels\n", out.c_str(), map.points.size(),
               scans, cfg.voxel_m);
   return 0;

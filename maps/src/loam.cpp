@@ -1,0 +1,665 @@
+// LOAM-style odometry: ring features, a local feature map in voxel hashes, point-to-line and
+// point-to-plane Gauss-Newton. See loam.hpp for the outline.
+//
+// Registration parameters: a step (v, w) moves a transformed point q = R s + t (map frame, relative to
+// the anchor) to q + w x (R s) + v, i.e. the rotation turns about the sensor, which keeps the normal
+// matrix well conditioned however far the sensor is from the anchor.
+#include "pl/maps/loam.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <string>
+#include <unordered_set>
+
+#include "pl/common/error.hpp"
+
+namespace pl::maps {
+namespace {
+
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+
+// Packs integer cell coordinates (21 bits each, two's complement) into one key.
+inline std::uint64_t pack_cell(std::int64_t x, std::int64_t y, std::int64_t z) {
+  constexpr std::uint64_t m = (1ull << 21) - 1;
+  return (static_cast<std::uint64_t>(x) & m) | ((static_cast<std::uint64_t>(y) & m) << 21) | ((static_cast<std::uint64_t>(z) & m) << 42);
+}
+
+struct KeyHash {
+  std::size_t operator()(std::uint64_t k) const {
+    k ^= k >> 31;
+    k *= 0x9E3779B97F4A7C15ull;
+    k ^= k >> 29;
+    return static_cast<std::size_t>(k);
+  }
+};
+
+inline std::int64_t cell_of(float v, float inv) { return static_cast<std::int64_t>(std::floor(v * inv)); }
+
+// Keeps the first point of every leaf (a real return, not a blend of two surfaces), in input order.
+void thin(std::vector<Eigen::Vector3f>& pts, double leaf) {
+  if (!(leaf > 0) || pts.empty()) return;
+  const float inv = static_cast<float>(1.0 / leaf);
+  std::unordered_set<std::uint64_t, KeyHash> seen;
+  seen.reserve(pts.size() * 2);
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const Eigen::Vector3f& p = pts[i];
+    if (!seen.insert(pack_cell(cell_of(p.x(), inv), cell_of(p.y(), inv), cell_of(p.z(), inv))).second) continue;
+    pts[out++] = p;
+  }
+  pts.resize(out);
+}
+
+// Open addressing (linear probing, backward-shift deletion) from a packed cell key to a slot number.
+class CellTable {
+ public:
+  static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+
+  CellTable() { rehash(1024); }
+
+  std::uint32_t find(std::uint64_t key) const {
+    for (std::size_t i = home(key);; i = (i + 1) & mask_) {
+      const Entry& e = entries_[i];
+      if (e.key == key) return e.value;
+      if (e.key == kEmpty) return kNone;
+    }
+  }
+  // The value stored under key, or `value` newly stored; `fresh` says which.
+  std::uint32_t insert(std::uint64_t key, std::uint32_t value, bool& fresh) {
+    if (2 * (used_ + 1) > entries_.size()) rehash(entries_.size() * 2);
+    std::size_t i = home(key);
+    for (; entries_[i].key != kEmpty; i = (i + 1) & mask_)
+      if (entries_[i].key == key) {
+        fresh = false;
+        return entries_[i].value;
+      }
+    entries_[i] = {key, value};
+    ++used_;
+    fresh = true;
+    return value;
+  }
+  void erase(std::uint64_t key) {
+    std::size_t i = home(key);
+    while (entries_[i].key != key) {
+      if (entries_[i].key == kEmpty) return;
+      i = (i + 1) & mask_;
+    }
+    // Backward shift: pull later entries of the probe run into the hole when their home allows it.
+    for (std::size_t j = (i + 1) & mask_;; j = (j + 1) & mask_) {
+      if (entries_[j].key == kEmpty) break;
+      const std::size_t h = home(entries_[j].key);
+      const bool movable = i <= j ? (h <= i || h > j) : (h <= i && h > j);
+      if (movable) {
+        entries_[i] = entries_[j];
+        i = j;
+      }
+    }
+    entries_[i].key = kEmpty;
+    --used_;
+  }
+  template <typename F>
+  void for_each(F&& f) const {
+    for (const Entry& e : entries_)
+      if (e.key != kEmpty) f(e.key, e.value);
+  }
+
+ private:
+  static constexpr std::uint64_t kEmpty = ~0ull;  // packed keys use 63 bits
+  struct Entry {
+    std::uint64_t key;
+    std::uint32_t value;
+  };
+  std::vector<Entry> entries_;
+  std::size_t mask_ = 0, used_ = 0;
+  int shift_ = 54;
+
+  std::size_t home(std::uint64_t key) const { return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> shift_); }
+  void rehash(std::size_t n) {
+    std::vector<Entry> old = std::move(entries_);
+    entries_.assign(n, Entry{kEmpty, 0});
+    mask_ = n - 1;
+    shift_ = 64 - __builtin_ctzll(n);
+    used_ = 0;
+    bool fresh;
+    for (const Entry& e : old)
+      if (e.key != kEmpty) insert(e.key, e.value, fresh);
+  }
+};
+
+// Points of one feature kind in the map frame (relative to the anchor), in cells of `cell` metres,
+// at most one point per `leaf` within a cell and `cap` points per cell. A cell's points sit together
+// in one pool (no allocation per cell); pruned cells' slots are reused.
+class FeatureGrid {
+ public:
+  FeatureGrid(double cell, double leaf, int cap)
+      : inv_(static_cast<float>(1.0 / cell)), cell_(static_cast<float>(cell)), leaf2_(static_cast<float>(leaf * leaf)),
+        cap_(static_cast<std::uint32_t>(std::clamp(cap, 1, 255))) {}
+
+  void insert(const Eigen::Vector3f& p) {
+    const auto ix = cell_of(p.x(), inv_), iy = cell_of(p.y(), inv_), iz = cell_of(p.z(), inv_);
+    const std::uint32_t next = free_.empty() ? static_cast<std::uint32_t>(count_.size()) : free_.back();
+    bool fresh;
+    const std::uint32_t c = table_.insert(pack_cell(ix, iy, iz), next, fresh);
+    if (fresh) {
+      if (free_.empty()) {
+        count_.push_back(0);
+        centre_.emplace_back();
+        pool_.resize(pool_.size() + cap_);
+      } else {
+        free_.pop_back();
+      }
+      count_[c] = 0;
+      centre_[c] = Eigen::Vector2f((static_cast<float>(ix) + 0.5f) * cell_, (static_cast<float>(iy) + 0.5f) * cell_);
+    }
+    std::uint8_t& n = count_[c];
+    if (n >= cap_) return;
+    const Eigen::Vector3f* pts = &pool_[static_cast<std::size_t>(c) * cap_];
+    for (std::uint32_t i = 0; i < n; ++i)
+      if ((pts[i] - p).squaredNorm() < leaf2_) return;
+    pool_[static_cast<std::size_t>(c) * cap_ + n] = p;
+    ++n;
+    ++size_;
+  }
+
+  // Drops the cells whose centre lies farther than `radius` from `at` in the xy plane.
+  void prune(const Eigen::Vector3f& at, float radius) {
+    const float r2 = radius * radius;
+    std::vector<std::uint64_t> gone;
+    table_.for_each([&](std::uint64_t key, std::uint32_t c) {
+      if ((centre_[c] - at.head<2>()).squaredNorm() > r2) gone.push_back(key);
+    });
+    for (std::uint64_t key : gone) {
+      const std::uint32_t c = table_.find(key);
+      size_ -= count_[c];
+      count_[c] = 0;
+      free_.push_back(c);
+      table_.erase(key);
+    }
+  }
+
+  // Up to 5 nearest points to q within sqrt(max_d2), from the 8 cells nearest q (exact within half a
+  // cell). Returns how many were found, nearest first.
+  int nearest5(const Eigen::Vector3f& q, float max_d2, Eigen::Vector3f out[5]) const {
+    float d2s[5];
+    int n = 0;
+    const float fx = q.x() * inv_, fy = q.y() * inv_, fz = q.z() * inv_;
+    const float flx = std::floor(fx), fly = std::floor(fy), flz = std::floor(fz);
+    const auto ix = static_cast<std::int64_t>(flx), iy = static_cast<std::int64_t>(fly), iz = static_cast<std::int64_t>(flz);
+    const std::int64_t sx = fx - flx < 0.5f ? -1 : 1, sy = fy - fly < 0.5f ? -1 : 1, sz = fz - flz < 0.5f ? -1 : 1;
+    for (int k = 0; k < 8; ++k) {
+      const std::uint32_t c = table_.find(pack_cell(ix + ((k & 1) ? sx : 0), iy + ((k & 2) ? sy : 0), iz + ((k & 4) ? sz : 0)));
+      if (c == CellTable::kNone) continue;
+      const Eigen::Vector3f* pts = &pool_[static_cast<std::size_t>(c) * cap_];
+      for (std::uint32_t i = 0, m = count_[c]; i < m; ++i) {
+        const float d2 = (pts[i] - q).squaredNorm();
+        if (d2 >= max_d2 || (n == 5 && d2 >= d2s[4])) continue;
+        int j = n < 5 ? n++ : 4;
+        while (j > 0 && d2s[j - 1] > d2) {
+          d2s[j] = d2s[j - 1];
+          out[j] = out[j - 1];
+          --j;
+        }
+        d2s[j] = d2;
+        out[j] = pts[i];
+      }
+    }
+    return n;
+  }
+
+  std::size_t size() const { return size_; }
+
+ private:
+  float inv_, cell_, leaf2_;
+  std::uint32_t cap_;
+  std::size_t size_ = 0;
+  CellTable table_;
+  std::vector<std::uint8_t> count_;     // points in each cell slot
+  std::vector<Eigen::Vector2f> centre_;  // xy centre of each cell slot
+  std::vector<Eigen::Vector3f> pool_;   // cap_ points a slot
+  std::vector<std::uint32_t> free_;     // slots of pruned cells
+};
+
+// A scan feature paired with its line (two rows) or plane (one row): residual_i = n_i . q + d_i.
+struct Match {
+  Eigen::Vector3f s;  // sensor frame
+  Eigen::Vector3f n[2];
+  float d[2];
+  int rows;
+};
+
+// Line through the 5 points when they spread along one direction; rows: the two directions across it.
+bool fit_line(const Eigen::Vector3f pts[5], double ratio, Match& m) {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (int i = 0; i < 5; ++i) c += pts[i].cast<double>();
+  c /= 5.0;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (int i = 0; i < 5; ++i) {
+    const Eigen::Vector3d d = pts[i].cast<double>() - c;
+    cov += d * d.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+  es.computeDirect(cov);
+  const Eigen::Vector3d ev = es.eigenvalues();
+  if (!(ev(2) > ratio * ev(1))) return false;
+  for (int r = 0; r < 2; ++r) {
+    const Eigen::Vector3d n = es.eigenvectors().col(r).normalized();
+    m.n[r] = n.cast<float>();
+    m.d[r] = static_cast<float>(-n.dot(c));
+  }
+  m.rows = 2;
+  return true;
+}
+
+// Plane through the 5 points when all lie within max_dist of it.
+bool fit_plane(const Eigen::Vector3f pts[5], double max_dist, Match& m) {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (int i = 0; i < 5; ++i) c += pts[i].cast<double>();
+  c /= 5.0;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (int i = 0; i < 5; ++i) {
+    const Eigen::Vector3d d = pts[i].cast<double>() - c;
+    cov += d * d.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+  es.computeDirect(cov);
+  const Eigen::Vector3d n = es.eigenvectors().col(0).normalized();
+  if (!(es.eigenvalues()(1) > 0)) return false;  // all on one line (or one point)
+  for (int i = 0; i < 5; ++i)
+    if (std::abs(n.dot(pts[i].cast<double>() - c)) > max_dist) return false;
+  m.n[0] = n.cast<float>();
+  m.d[0] = static_cast<float>(-n.dot(c));
+  m.rows = 1;
+  return true;
+}
+
+// d scaled by f: rotation angle and translation times f (constant velocity over a fraction or a
+// multiple of an interval).
+Pose scale_motion(const Pose& d, double f) {
+  const Eigen::AngleAxisd aa(d.linear());
+  Pose out = Pose::Identity();
+  out.linear() = Eigen::AngleAxisd(f * aa.angle(), aa.axis()).toRotationMatrix();
+  out.translation() = f * d.translation();
+  return out;
+}
+
+Eigen::Matrix3d exp_so3(const Eigen::Vector3d& w) {
+  const double a = w.norm();
+  if (a < 1e-12) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
+}
+
+struct Normal {
+  Mat6 H = Mat6::Zero();
+  Vec6 g = Vec6::Zero();
+  int rows = 0;
+};
+
+// Normal equations of the matches at (R, t), Cauchy-weighted, pairs beyond max_res dropped.
+Normal accumulate(const std::vector<Match>& matches, const Eigen::Matrix3f& R, const Eigen::Vector3f& t, float k2, float max_res2) {
+  Normal out;
+  Eigen::Matrix<float, 6, 6> Hf = Eigen::Matrix<float, 6, 6>::Zero();
+  Eigen::Matrix<float, 6, 1> gf = Eigen::Matrix<float, 6, 1>::Zero();
+  int block = 0;
+  for (const Match& m : matches) {
+    const Eigen::Vector3f qr = R * m.s;
+    const Eigen::Vector3f q = qr + t;
+    float r[2], e2 = 0;
+    for (int i = 0; i < m.rows; ++i) {
+      r[i] = m.n[i].dot(q) + m.d[i];
+      e2 += r[i] * r[i];
+    }
+    if (e2 > max_res2) continue;
+    const float w = 1.0f / (1.0f + e2 / k2);
+    for (int i = 0; i < m.rows; ++i) {
+      Eigen::Matrix<float, 6, 1> J;
+      J.head<3>() = m.n[i];
+      J.tail<3>() = qr.cross(m.n[i]);
+      Hf.noalias() += (w * J) * J.transpose();
+      gf.noalias() += (w * r[i]) * J;
+    }
+    out.rows += m.rows;
+    if (++block == 256) {  // float sums in blocks, flushed to double
+      out.H += Hf.cast<double>();
+      out.g += gf.cast<double>();
+      Hf.setZero();
+      gf.setZero();
+      block = 0;
+    }
+  }
+  out.H += Hf.cast<double>();
+  out.g += gf.cast<double>();
+  return out;
+}
+
+constexpr double kLever = 10.0;  // rotations weighed as arcs at this radius when comparing directions
+
+// Gauss-Newton step; directions weaker than ratio * the strongest are left alone (and reported).
+Vec6 solve_step(const Normal& n, double ratio, bool& degenerate) {
+  Vec6 s;
+  s << 1, 1, 1, 1 / kLever, 1 / kLever, 1 / kLever;
+  const Mat6 Hs = s.asDiagonal() * n.H * s.asDiagonal();
+  const Vec6 gs = s.cwiseProduct(n.g);
+  Eigen::SelfAdjointEigenSolver<Mat6> es(Hs);
+  const Vec6 ev = es.eigenvalues();
+  const double floor = ratio * ev(5);
+  Vec6 step = Vec6::Zero();
+  degenerate = false;
+  for (int i = 0; i < 6; ++i) {
+    if (!(ev(i) > floor) || !(ev(i) > 0)) {
+      degenerate = true;
+      continue;
+    }
+    const Vec6 v = es.eigenvectors().col(i);
+    step -= (v.dot(gs) / ev(i)) * v;
+  }
+  return s.cwiseProduct(step);
+}
+
+}  // namespace
+
+// An edge pick suppresses its ring neighbours up to the first gap longer than this (squared, m^2):
+// across a gap the next point belongs to another surface and may be an edge of its own.
+constexpr float kSuppressGap2 = 0.05f;
+
+LoamFeatures extract_loam_features(const Scan& scan, const std::vector<std::uint16_t>& rings, const LoamConfig& cfg) {
+  if (rings.size() != scan.size())
+    throw Error("LOAM features need one ring per point: " + std::to_string(rings.size()) + " rings for " + std::to_string(scan.size()) + " points");
+  LoamFeatures out;
+  const int k = std::max(1, cfg.curvature_neighbours);
+  const float min2 = static_cast<float>(cfg.min_range_m * cfg.min_range_m), max2 = static_cast<float>(cfg.max_range_m * cfg.max_range_m);
+
+  // Valid points grouped by ring (counting sort), scan order kept within each ring.
+  std::size_t nrings = 0;
+  std::vector<std::uint8_t> valid(scan.size(), 0);
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const PointXYZI& p = scan[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+    const float r2 = p.x * p.x + p.y * p.y + p.z * p.z;
+    if (r2 < min2 || r2 >= max2) continue;
+    valid[i] = 1;
+    nrings = std::max<std::size_t>(nrings, rings[i] + 1u);
+  }
+  std::vector<std::uint32_t> start(nrings + 1, 0);
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    if (valid[i]) ++start[rings[i] + 1u];
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  std::vector<std::uint32_t> order(start.back()), fill(start.begin(), start.end() - 1);
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    if (valid[i]) order[fill[rings[i]]++] = static_cast<std::uint32_t>(i);
+
+  const float edge_c = static_cast<float>(cfg.edge_curvature), plane_c = static_cast<float>(cfg.plane_curvature);
+  const float occl = static_cast<float>(cfg.occlusion_ratio), graze2 = static_cast<float>(cfg.grazing_ratio * cfg.grazing_ratio);
+  const int sectors = std::max(1, cfg.sectors);
+  std::vector<Eigen::Vector3f> pts;
+  std::vector<float> range, curv;
+  std::vector<std::uint8_t> usable, taken;
+  std::vector<int> cand;
+  for (std::size_t r = 0; r < nrings; ++r) {
+    const int n = static_cast<int>(start[r + 1] - start[r]);
+    if (n < 2 * k + 1) continue;
+    pts.resize(n);
+    range.resize(n);
+    for (int i = 0; i < n; ++i) {
+      const PointXYZI& p = scan[order[start[r] + i]];
+      pts[i] = Eigen::Vector3f(p.x, p.y, p.z);
+      range[i] = pts[i].norm();
+    }
+    curv.assign(n, 0.0f);
+    usable.assign(n, 0);
+    taken.assign(n, 0);
+    for (int i = k; i < n - k; ++i) {
+      Eigen::Vector3f s = Eigen::Vector3f::Zero();
+      for (int j = 1; j <= k; ++j) s += pts[i - j] + pts[i + j];
+      curv[i] = (s - static_cast<float>(2 * k) * pts[i]).squaredNorm();
+      usable[i] = 1;
+    }
+    // Occlusion boundaries: across a range jump, the farther side borders a shadow; its points look
+    // sharp but move with the viewpoint.
+    for (int i = 0; i + 1 < n; ++i) {
+      const float a = range[i], b = range[i + 1];
+      if (std::abs(a - b) <= occl * std::min(a, b)) continue;
+      if (a > b) {
+        for (int j = std::max(0, i - k); j <= i; ++j) usable[j] = 0;
+      } else {
+        for (int j = i + 1; j <= std::min(n - 1, i + 1 + k); ++j) usable[j] = 0;
+      }
+    }
+    // Surfaces seen nearly edge-on: long gaps to both neighbours.
+    for (int i = 1; i + 1 < n; ++i) {
+      const float lim = graze2 * range[i] * range[i];
+      if ((pts[i + 1] - pts[i]).squaredNorm() > lim && (pts[i] - pts[i - 1]).squaredNorm() > lim) usable[i] = 0;
+    }
+    for (int s = 0; s < sectors; ++s) {
+      const int b = k + (n - 2 * k) * s / sectors, e = k + (n - 2 * k) * (s + 1) / sectors;
+      // Edges: sharpest first; each pick suppresses its close ring neighbours.
+      cand.clear();
+      for (int i = b; i < e; ++i)
+        if (usable[i] && curv[i] > edge_c) cand.push_back(i);
+      std::sort(cand.begin(), cand.end(), [&](int x, int y) { return curv[x] > curv[y] || (curv[x] == curv[y] && x < y); });
+      int picked = 0;
+      for (int i : cand) {
+        if (picked >= cfg.max_edges_per_sector) break;
+        if (taken[i]) continue;
+        out.edges.push_back(pts[i]);
+        ++picked;
+        taken[i] = 1;
+        for (int j = 1; j <= k && i + j < n; ++j) {
+          if ((pts[i + j] - pts[i + j - 1]).squaredNorm() > kSuppressGap2) break;
+          taken[i + j] = 1;
+        }
+        for (int j = 1; j <= k && i - j >= 0; ++j) {
+          if ((pts[i - j] - pts[i - j + 1]).squaredNorm() > kSuppressGap2) break;
+          taken[i - j] = 1;
+        }
+      }
+      // Planes: the flattest, up to the cap.
+      cand.clear();
+      for (int i = b; i < e; ++i)
+        if (usable[i] && !taken[i] && curv[i] < plane_c) cand.push_back(i);
+      const std::size_t cap = static_cast<std::size_t>(std::max(0, cfg.max_planes_per_sector));
+      if (cand.size() > cap) {
+        std::nth_element(cand.begin(), cand.begin() + static_cast<std::ptrdiff_t>(cap), cand.end(),
+                         [&](int x, int y) { return curv[x] < curv[y] || (curv[x] == curv[y] && x < y); });
+        cand.resize(cap);
+      }
+      for (int i : cand) out.planes.push_back(pts[i]);
+    }
+  }
+  thin(out.edges, cfg.edge_voxel_m);
+  thin(out.planes, cfg.plane_voxel_m);
+  // Time within the sweep: clockwise from straight ahead (-0.5 just past the back on the left, 0
+  // ahead, +0.5 back on the right).
+  auto times = [](const std::vector<Eigen::Vector3f>& pts, std::vector<float>& t) {
+    t.resize(pts.size());
+    for (std::size_t i = 0; i < pts.size(); ++i) t[i] = static_cast<float>(-std::atan2(pts[i].y(), pts[i].x()) / (2.0 * M_PI));
+  };
+  times(out.edges, out.edge_time);
+  times(out.planes, out.plane_time);
+  return out;
+}
+
+struct LoamOdometry::Impl {
+  LoamConfig cfg;
+  FeatureGrid edges, planes;
+  Pose start = Pose::Identity();
+  Eigen::Vector3d anchor = Eigen::Vector3d::Zero();
+  Pose last = Pose::Identity(), prev = Pose::Identity(), keyframe = Pose::Identity();
+  double t_last = 0, t_prev = 0;
+  std::size_t scans = 0;
+  std::vector<Match> matches;
+
+  explicit Impl(const LoamConfig& c)
+      : cfg(c), edges(c.map_cell_m, c.edge_voxel_m, c.map_points_per_cell), planes(c.map_cell_m, c.plane_voxel_m, c.map_points_per_cell) {}
+
+  Pose predict(double t) const {
+    if (scans == 0) return start;
+    if (scans == 1) return last;
+    const double dt = t_last - t_prev;
+    const double f = dt > 0 ? (t - t_last) / dt : 1.0;
+    return last * scale_motion(prev.inverse() * last, f);
+  }
+
+  void add_to_map(const LoamFeatures& f, const Pose& pose) {
+    const Eigen::Matrix3f R = pose.linear().cast<float>();
+    const Eigen::Vector3f t = (pose.translation() - anchor).cast<float>();
+    for (const auto& p : f.edges) edges.insert(R * p + t);
+    for (const auto& p : f.planes) planes.insert(R * p + t);
+    const float radius = static_cast<float>(cfg.map_radius_m);
+    edges.prune(t, radius);
+    planes.prune(t, radius);
+    keyframe = pose;
+  }
+
+  // Pairs every feature with its line or plane in the map at (R, t). Returns edges and planes matched.
+  std::pair<int, int> match(const LoamFeatures& f, const Eigen::Matrix3f& R, const Eigen::Vector3f& t) {
+    matches.clear();
+    const float max_d2 = static_cast<float>(cfg.max_neighbour_m * cfg.max_neighbour_m);
+    Eigen::Vector3f nb[5];
+    Match m;
+    int ne = 0, np = 0;
+    for (const auto& s : f.edges) {
+      if (edges.nearest5(R * s + t, max_d2, nb) < 5 || !fit_line(nb, cfg.line_ratio, m)) continue;
+      m.s = s;
+      matches.push_back(m);
+      ++ne;
+    }
+    for (const auto& s : f.planes) {
+      if (planes.nearest5(R * s + t, max_d2, nb) < 5 || !fit_plane(nb, cfg.plane_fit_m, m)) continue;
+      m.s = s;
+      matches.push_back(m);
+      ++np;
+    }
+    return {ne, np};
+  }
+};
+
+namespace {
+const LoamConfig& checked(const LoamConfig& cfg) {
+  if (!(cfg.map_cell_m > 0) || !(cfg.edge_voxel_m >= 0) || !(cfg.plane_voxel_m >= 0) || !(cfg.kernel_m > 0))
+    throw Error("LOAM: the map cell and the kernel must be positive, the voxel sizes not negative");
+  return cfg;
+}
+}  // namespace
+
+LoamOdometry::LoamOdometry(const LoamConfig& cfg) : impl_(std::make_unique<Impl>(checked(cfg))) {}
+
+LoamOdometry::~LoamOdometry() = default;
+
+void LoamOdometry::start(const Pose& first_pose) {
+  if (impl_->scans > 0) throw Error("LOAM: start() must come before the first scan");
+  impl_->start = first_pose;
+}
+
+std::size_t LoamOdometry::map_edges() const { return impl_->edges.size(); }
+std::size_t LoamOdometry::map_planes() const { return impl_->planes.size(); }
+const LoamConfig& LoamOdometry::config() const { return impl_->cfg; }
+
+LoamFrame LoamOdometry::add(const Scan& scan, const std::vector<std::uint16_t>& rings, double t) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Impl& m = *impl_;
+  const LoamConfig& cfg = m.cfg;
+  LoamFeatures f = extract_loam_features(scan, rings, cfg);
+  LoamFrame out;
+  out.pose = m.predict(t);
+
+  if (cfg.deskew && m.scans > 0) {
+    // Motion over one sweep from the prediction, applied to each feature at its own time.
+    const double dt = t - m.t_last;
+    const Pose sweep = scale_motion(m.last.inverse() * out.pose, dt > 0 ? cfg.scan_period_s / dt : 0.0);
+    const Eigen::AngleAxisd aa(sweep.linear());
+    auto correct = [&](std::vector<Eigen::Vector3f>& pts, const std::vector<float>& times) {
+      for (std::size_t i = 0; i < pts.size(); ++i) {
+        const double s = times[i];
+        const Eigen::Vector3d p = Eigen::AngleAxisd(s * aa.angle(), aa.axis()) * pts[i].cast<double>() + s * sweep.translation();
+        pts[i] = p.cast<float>();
+      }
+    };
+    correct(f.edges, f.edge_time);
+    correct(f.planes, f.plane_time);
+  }
+
+  if (m.scans == 0) {
+    m.anchor = out.pose.translation();
+    m.add_to_map(f, out.pose);
+    out.keyframe = true;
+    out.edges = static_cast<int>(f.edges.size());
+    out.planes = static_cast<int>(f.planes.size());
+    out.degenerate = f.edges.size() + f.planes.size() < static_cast<std::size_t>(cfg.min_correspondences);
+  } else {
+    Eigen::Matrix3d R = out.pose.linear();
+    Eigen::Vector3d tr = out.pose.translation() - m.anchor;
+    const float k2 = static_cast<float>(cfg.kernel_m * cfg.kernel_m), max_res2 = static_cast<float>(cfg.max_residual_m * cfg.max_residual_m);
+    bool degenerate = true, matched = false;
+    for (int outer = 0; outer < std::max(1, cfg.max_rematches); ++outer) {
+      auto [ne, np] = m.match(f, R.cast<float>(), tr.cast<float>());
+      out.edges = ne;
+      out.planes = np;
+      if (ne + np < cfg.min_correspondences) {
+        matched = false;
+        break;
+      }
+      matched = true;
+      const Eigen::Matrix3d R_before = R;
+      const Eigen::Vector3d t_before = tr;
+      for (int it = 0; it < std::max(1, cfg.iterations_per_match); ++it) {
+        const Normal n = accumulate(m.matches, R.cast<float>(), tr.cast<float>(), k2, max_res2);
+        if (n.rows < cfg.min_correspondences) break;
+        const Vec6 step = solve_step(n, cfg.degenerate_ratio, degenerate);
+        if (!step.allFinite()) break;
+        R = exp_so3(step.tail<3>()) * R;
+        tr += step.head<3>();
+        ++out.iterations;
+        if (step.head<3>().norm() < cfg.converged_m && step.tail<3>().norm() < cfg.converged_rad) break;
+      }
+      // Pairs found again after a move this small would be (nearly) the same: done.
+      const double moved = (tr - t_before).norm(), turned = Eigen::AngleAxisd(R * R_before.transpose()).angle();
+      if (moved < cfg.rematch_m && turned < cfg.rematch_rad) break;
+    }
+    Eigen::Quaterniond q(R);
+    q.normalize();
+    Pose solved = Pose::Identity();
+    solved.linear() = q.toRotationMatrix();
+    solved.translation() = tr + m.anchor;
+    // Once the velocity is known, a solution far from the prediction is a wrong match (a view blocked
+    // by a passing truck, say), not the vehicle's motion.
+    if (matched && m.scans >= 2 && cfg.max_correction_m > 0) {
+      const Pose correction = out.pose.inverse() * solved;
+      if (correction.translation().norm() > cfg.max_correction_m || rotation_angle(correction) > cfg.max_correction_deg * M_PI / 180.0)
+        matched = false;
+    }
+    if (matched) {
+      out.pose = solved;
+      const Normal n = accumulate(m.matches, solved.linear().cast<float>(), tr.cast<float>(), k2, max_res2);
+      Mat6 A = Mat6::Zero();
+      A.block<3, 3>(0, 0) = solved.linear();
+      A.block<3, 3>(3, 3) = solved.linear();
+      const Mat6 info = A.transpose() * n.H * A;
+      out.information = 0.5 * (info + info.transpose());  // exactly symmetric (float sums are not)
+      solve_step(n, cfg.degenerate_ratio, degenerate);
+      out.degenerate = degenerate;
+    } else {
+      out.degenerate = true;  // the prediction is kept, with no information, and stays out of the map
+    }
+    const Pose rel = m.keyframe.inverse() * out.pose;
+    const bool far_enough = rel.translation().norm() >= cfg.keyframe_m || rotation_angle(rel) >= cfg.keyframe_deg * M_PI / 180.0;
+    if ((matched && far_enough) || m.edges.size() + m.planes.size() == 0) {
+      m.add_to_map(f, out.pose);
+      out.keyframe = true;
+    }
+  }
+  m.prev = m.last;
+  m.t_prev = m.t_last;
+  m.last = out.pose;
+  m.t_last = t;
+  ++m.scans;
+  out.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace pl::maps
