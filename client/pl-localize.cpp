@@ -114,6 +114,7 @@ int body(int argc, char** argv) {
   if (first >= scans.size()) throw Error("--first " + std::to_string(first) + " is past the " + std::to_string(scans.size()) + " scans");
   scans = std::vector<std::size_t>(scans.begin() + static_cast<long>(first),
                                    scans.begin() + static_cast<long>(std::min(scans.size(), first + count)));
+  if (scans.empty()) throw Error("--count " + std::to_string(count) + " leaves no scan to localize (give at least 1)");
 
   // Odometry.
   std::string odo_kind = args.get_or("--odometry", "auto");
