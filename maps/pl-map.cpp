@@ -2,8 +2,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <optional>
 #include <set>
+
+#include <nlohmann/json.hpp>
 
 #include "pl/common/cli.hpp"
 #include "pl/common/cloud_io.hpp"
@@ -12,6 +15,7 @@
 #include "pl/common/text.hpp"
 #include "pl/maps/loam.hpp"
 #include "pl/maps/map_builder.hpp"
+#include "pl/maps/pose_graph.hpp"
 #include "pl/maps/push.hpp"
 #include "pl/schema/store.hpp"
 
@@ -20,13 +24,16 @@ namespace {
 const char* kUsage =
     "usage: pl-map COMMAND [options]\n"
     "\n"
-    "  build    --dataset DIR --out map.pcd [--poses gt|lidar] [--traj-out poses.txt] [--deskew auto|on|off]\n"
-    "           [--voxel 0.2] [--every N] [--max-range 80]\n"
+    "  build    --dataset DIR --out map.pcd [--poses gt|lidar] [--gps] [--traj-out poses.txt] [--report FILE.json]\n"
+    "           [--deskew auto|on|off] [--voxel 0.2] [--every N] [--max-range 80]\n"
     "           merge a drive's scans at their ground-truth poses (gt) or at the poses of LiDAR odometry\n"
     "           alone (lidar; started at the first ground-truth pose when there is one; deskew auto: on\n"
     "           for recordings without meta.json) into a voxelized map (PCD in the dataset's world\n"
     "           frame, its geodetic origin recorded in the header); --traj-out writes the LiDAR pose of\n"
-    "           every scan (KITTI format), line for line with the dataset\n"
+    "           every scan (KITTI format), line for line with the dataset; --gps (with --poses lidar): a pose graph\n"
+    "           of keyframes over the odometry with the drive's GPS fixes (robust to multipath) sets the poses;\n"
+    "           --report writes JSON: keyframes, GPS edges and outliers, GPS residuals and the mean translation\n"
+    "           error against ground truth (when there is one) before and after the graph, solve time\n"
     "  tile     --cloud FILE(.pcd|.ply|.bin) --db maps.sqlite --map NAME [--origin LAT,LON,ALT]\n"
     "           [--voxel 0.2] [--tile-size 20] [--normal-radius 0.6] [--max-error 0.005] [--note TEXT]\n"
     "           voxelize, estimate normals, cut into tiles, Draco-encode them and write a new staged\n"
@@ -50,6 +57,8 @@ int cmd_build(const pl::Args& a) {
   std::string poses = a.get_or("--poses", "gt");
   std::string out = a.require("--out", "FILE.pcd (where to write the map)");
   auto traj_out = a.get("--traj-out");
+  const bool use_gps = a.has("--gps");
+  auto report_path = a.get("--report");
   std::string deskew = a.get_or("--deskew", "auto");
   pl::maps::MapBuildConfig cfg;
   cfg.voxel_m = a.get_double("--voxel", cfg.voxel_m);
@@ -60,8 +69,25 @@ int cmd_build(const pl::Args& a) {
   if (poses != "gt" && poses != "lidar")
     throw pl::Error("--poses takes gt (the dataset's ground truth) or lidar (LiDAR odometry alone), not " + poses);
   if (deskew != "auto" && deskew != "on" && deskew != "off") throw pl::Error("--deskew takes auto, on or off, not " + deskew);
+  if (use_gps && poses != "lidar") throw pl::Error("--gps needs --poses lidar (it corrects the LiDAR odometry)");
   pl::Dataset ds = pl::open_dataset(dir);
   if (ds.size() == 0) throw pl::Error(ds.dir + ": no scans");
+  std::vector<pl::maps::GpsEdge> gps_edges;
+  if (use_gps) {
+    if (ds.gps.empty()) throw pl::Error(ds.dir + ": --gps needs GPS fixes (gps.csv or OXTS), and the drive has none");
+    gps_edges = pl::maps::gps_edges_from_dataset(ds);  // throws when the fixes cannot be placed in the world frame
+    if (gps_edges.empty()) throw pl::Error(ds.dir + ": no usable GPS fix (status other than none, within 0.05 s of a scan)");
+  }
+  nlohmann::json report;
+  report["dataset"] = ds.dir;
+  report["scans"] = ds.size();
+  report["poses"] = poses;
+  // Mean translation error against ground truth, when the dataset has it.
+  auto mean_error = [&](const pl::Trajectory& t) {
+    double sum = 0;
+    for (std::size_t i = 0; i < ds.size(); ++i) sum += (t.poses[i].translation() - ds.ground_truth.poses[i].translation()).norm();
+    return sum / static_cast<double>(ds.size());
+  };
 
   pl::Trajectory placed;  // one LiDAR pose per scan of the dataset
   std::optional<pl::GeoPoint> origin = ds.meta.origin;
@@ -82,12 +108,14 @@ int cmd_build(const pl::Args& a) {
     else
       origin.reset();
     std::vector<double> ms;
+    std::vector<pl::maps::Information6> information;
     std::size_t degenerate = 0;
     pl::Progress bar("lidar odometry", ds.size());
     for (std::size_t i = 0; i < ds.size(); ++i) {
       pl::Scan scan = ds.load_scan(i);
       pl::maps::LoamFrame f = odometry.add(scan, ds.rings(scan), ds.times[i]);
       placed.poses.push_back(f.pose);
+      information.push_back(f.information);
       ms.push_back(f.ms);
       degenerate += f.degenerate;
       bar.update(i + 1);
@@ -97,12 +125,41 @@ int cmd_build(const pl::Args& a) {
     std::sort(ms.begin(), ms.end());
     std::printf("lidar odometry: %zu scans (deskew %s), median %.1f ms a scan, %zu degenerate%s\n", ds.size(), lc.deskew ? "on" : "off",
                 ms[ms.size() / 2], degenerate, ds.has_ground_truth() ? ", started at the first ground-truth pose" : ", in the first scan's frame");
+    report["odometry"] = {{"median_ms", ms[ms.size() / 2]}, {"degenerate", degenerate}, {"deskew", lc.deskew}};
+    if (ds.has_ground_truth()) report["mean_error_before_m"] = mean_error(placed);
+    if (use_gps) {
+      pl::maps::PoseGraphConfig gc;
+      pl::maps::PoseGraphReport r;
+      placed.poses = pl::maps::optimize_trajectory(placed.poses, information, gps_edges, ds.meta.vehicle.gps_lever_arm, gc, &r);
+      // The GPS fixes set the world frame: the map keeps the dataset's origin even without ground truth.
+      origin = ds.meta.origin;
+      std::printf("pose graph: %zu keyframes, %zu GPS edges (%zu outliers), GPS residual RMS %.3f m -> %.3f m, %d iterations, "
+                  "%.0f ms (%s)\n",
+                  r.keyframes, r.gps_edges, r.gps_outliers, r.gps_rms_before_m, r.gps_rms_after_m, r.iterations, r.solve_ms,
+                  r.termination.c_str());
+      report["pose_graph"] = {{"keyframes", r.keyframes},
+                              {"gps_edges", r.gps_edges},
+                              {"gps_outliers", r.gps_outliers},
+                              {"gps_rms_before_m", r.gps_rms_before_m},
+                              {"gps_rms_after_m", r.gps_rms_after_m},
+                              {"iterations", r.iterations},
+                              {"solve_ms", r.solve_ms},
+                              {"termination", r.termination}};
+    }
+    if (ds.has_ground_truth()) report["mean_error_after_m"] = mean_error(placed);
+  }
+  if (report_path) {
+    std::ofstream f(*report_path);
+    f << report.dump(2) << "\n";
+    if (!f) throw pl::Error(*report_path + ": cannot write the report");
+    std::printf("wrote %s\n", report_path->c_str());
   }
   if (traj_out) {
     pl::Trajectory kitti = placed;
     kitti.format = pl::PoseFormat::Kitti;
     pl::write_kitti_poses(*traj_out, kitti);
-    std::printf("wrote %s: %zu LiDAR poses (%s), one per scan\n", traj_out->c_str(), kitti.size(), poses == "gt" ? "ground truth" : "lidar odometry");
+    const char* source = poses == "gt" ? "ground truth" : use_gps ? "lidar odometry + GPS pose graph" : "lidar odometry";
+    std::printf("wrote %s: %zu LiDAR poses (%s), one per scan\n", traj_out->c_str(), kitti.size(), source);
   }
   std::size_t scans = (ds.size() + cfg.every - 1) / cfg.every;
   pl::Progress bar("merging scans", scans);
@@ -332,7 +389,7 @@ int body(int argc, char** argv) {
     return argc < 2 ? 2 : 0;
   }
   std::string cmd = argv[1];
-  pl::Args args(argc, argv, 2);
+  pl::Args args(argc, argv, 2, {"--gps"});
   if (!args.positional().empty()) throw pl::Error("unexpected argument \"" + args.positional()[0] + "\" (see pl-map --help)");
   if (cmd == "build") return cmd_build(args);
   if (cmd == "tile") return cmd_tile(args);
