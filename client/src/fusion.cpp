@@ -6,22 +6,13 @@
 namespace pl::client {
 namespace {
 
-Eigen::Vector3d log_so3(const Eigen::Matrix3d& R) {
-  const Eigen::AngleAxisd aa(R);
-  return aa.angle() * aa.axis();
-}
 
-Eigen::Matrix3d exp_so3(const Eigen::Vector3d& w) {
-  const double a = w.norm();
-  if (a < 1e-15) return Eigen::Matrix3d::Identity();
-  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
-}
 
 // a * (a^-1 b)^s: s = 1 gives b, s = 2 continues the motion from a to b once more.
 Eigen::Isometry3d extrapolate(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double s) {
   const Eigen::Isometry3d d = a.inverse() * b;
   Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
-  step.linear() = exp_so3(s * log_so3(d.linear()));
+  step.linear() = rotation_from_vector(s * rotation_vector(d.linear()));
   step.translation() = s * d.translation();
   return a * step;
 }
@@ -92,14 +83,14 @@ Eigen::Isometry3d Fusion::correct(double ts, const Eigen::Isometry3d& measured) 
     // Innovation in the vehicle frame at ts, scaled axis by axis.
     const Eigen::Isometry3d d = predicted.inverse() * measured;
     Eigen::Vector3d v = d.translation();
-    Eigen::Vector3d w = log_so3(d.linear());
+    Eigen::Vector3d w = rotation_vector(d.linear());
     // Rotation vector components about x, y, z are roll, pitch, yaw for small angles.
     for (int i = 0; i < 3; ++i) {
       v[i] *= gain_[i];
       w[i] *= gain_[3 + i];
     }
     Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
-    step.linear() = exp_so3(w);
+    step.linear() = rotation_from_vector(w);
     step.translation() = v;
     fused = predicted * step;
   }

@@ -3,6 +3,8 @@
 // turns about the sensor and stays well conditioned however far the anchor is.
 #include "pl/client/icp.hpp"
 
+#include "pl/common/pose.hpp"
+
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
@@ -59,11 +61,6 @@ Accumulated accumulate(const RoiMap& map, const std::vector<Eigen::Vector3f>& sc
   return a;
 }
 
-Eigen::Matrix3d exp_so3(const Eigen::Vector3d& w) {
-  const double a = w.norm();
-  if (a < 1e-12) return Eigen::Matrix3d::Identity();
-  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
-}
 
 }  // namespace
 
@@ -95,7 +92,7 @@ IcpResult register_scan(const RoiMap& map, const std::vector<Eigen::Vector3f>& s
       if (na > 0 && nb > 0 && a6.dot(b6) > 0.9 * na * nb && na < nb) boost = std::min(cfg.max_boost, 1.0 / (1.0 - na / nb));
     }
     last_step = step;
-    R = exp_so3(boost * step.tail<3>()) * R;
+    R = rotation_from_vector(boost * step.tail<3>()) * R;
     t += boost * step.head<3>();
     if (k <= cfg.kernel_m && step.head<3>().norm() < cfg.converged_m && step.tail<3>().norm() < cfg.converged_rad) {
       res.converged = true;

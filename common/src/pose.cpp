@@ -22,6 +22,17 @@ Pose make_pose(double x, double y, double z, double roll, double pitch, double y
 
 double yaw_of(const Pose& pose) { return std::atan2(pose.linear()(1, 0), pose.linear()(0, 0)); }
 
+Eigen::Matrix3d rotation_from_vector(const Eigen::Vector3d& w) {
+  const double a = w.norm();
+  if (a < 1e-15) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
+}
+
+Eigen::Vector3d rotation_vector(const Eigen::Matrix3d& r) {
+  const Eigen::AngleAxisd aa(r);
+  return aa.angle() * aa.axis();
+}
+
 double rotation_angle(const Pose& pose) {
   // atan2 of sin (from the skew-symmetric part) and cos (from the trace): small angles keep their
   // precision, which acos of the trace alone loses near zero.

@@ -17,6 +17,7 @@
 #include <unordered_set>
 
 #include "pl/common/error.hpp"
+#include "pl/common/pose.hpp"
 
 namespace pl::maps {
 namespace {
@@ -288,11 +289,6 @@ Pose scale_motion(const Pose& d, double f) {
   return out;
 }
 
-Eigen::Matrix3d exp_so3(const Eigen::Vector3d& w) {
-  const double a = w.norm();
-  if (a < 1e-12) return Eigen::Matrix3d::Identity();
-  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
-}
 
 struct Normal {
   Mat6 H = Mat6::Zero();
@@ -612,7 +608,7 @@ LoamFrame LoamOdometry::add(const Scan& scan, const std::vector<std::uint16_t>& 
         if (n.rows < cfg.min_correspondences) break;
         const Vec6 step = solve_step(n, cfg.degenerate_ratio, degenerate);
         if (!step.allFinite()) break;
-        R = exp_so3(step.tail<3>()) * R;
+        R = rotation_from_vector(step.tail<3>()) * R;
         tr += step.head<3>();
         ++out.iterations;
         if (step.head<3>().norm() < cfg.converged_m && step.tail<3>().norm() < cfg.converged_rad) break;

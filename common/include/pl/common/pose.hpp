@@ -28,6 +28,9 @@ struct Trajectory {
 Pose make_pose(double x, double y, double z, double roll = 0.0, double pitch = 0.0, double yaw = 0.0);
 // Heading of the pose's x axis in the xy plane.
 double yaw_of(const Pose& pose);
+// The rotation of rotation vector w (axis * angle, radians), and back: SO(3)'s exp and log.
+Eigen::Matrix3d rotation_from_vector(const Eigen::Vector3d& w);
+Eigen::Vector3d rotation_vector(const Eigen::Matrix3d& r);
 // Rotation angle of a pose's rotation part, in radians [0, pi] (precise for small angles too).
 double rotation_angle(const Pose& pose);
 // Projects a nearly-orthonormal 3x3 matrix (e.g. parsed from text rounded to 7 digits) onto SO(3).
