@@ -50,10 +50,7 @@ struct TileSource {
   long long version = 0;
 
   std::vector<pl::client::RoiMap::TileRef> near(const Eigen::Vector2d& c, double r) {
-    if (store) return store->near(c, r);
-    std::vector<pl::client::RoiMap::TileRef> out;
-    for (auto& t : client->tiles_near(c, r)) out.push_back({t.key, t.hash, t.cloud});
-    return out;
+    return store ? store->near(c, r) : client->tiles_near(c, r);
   }
   void focus(const Eigen::Vector2d& now, const Eigen::Vector2d& ahead) {
     if (client) client->set_focus(now, ahead);

@@ -44,7 +44,7 @@ std::vector<RoiMap::TileRef> StoreTiles::near(const Eigen::Vector2d& center, dou
       if (!bytes) throw Error("map store is missing blob " + it->second + " (run PRAGMA integrity_check)");
       cloud = std::make_shared<const TileCloud>(decode_tile(*bytes));
     }
-    out.push_back({key, it->second, cloud});
+    out.push_back({key, it->second, cloud, 0});
   }
   return out;
 }

@@ -234,9 +234,9 @@ struct Match {
   int rows;
 };
 
-// Line through the 5 points when they spread along one direction; rows: the two directions across it.
-bool fit_line(const Eigen::Vector3f pts[5], double ratio, Match& m) {
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+// Centroid and principal axes (eigenvalues ascending) of 5 neighbours.
+void principal_axes(const Eigen::Vector3f pts[5], Eigen::Vector3d& c, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>& es) {
+  c.setZero();
   for (int i = 0; i < 5; ++i) c += pts[i].cast<double>();
   c /= 5.0;
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
@@ -244,8 +244,14 @@ bool fit_line(const Eigen::Vector3f pts[5], double ratio, Match& m) {
     const Eigen::Vector3d d = pts[i].cast<double>() - c;
     cov += d * d.transpose();
   }
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
   es.computeDirect(cov);
+}
+
+// Line through the 5 points when they spread along one direction; rows: the two directions across it.
+bool fit_line(const Eigen::Vector3f pts[5], double ratio, Match& m) {
+  Eigen::Vector3d c;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+  principal_axes(pts, c, es);
   const Eigen::Vector3d ev = es.eigenvalues();
   if (!(ev(2) > ratio * ev(1))) return false;
   for (int r = 0; r < 2; ++r) {
@@ -259,16 +265,9 @@ bool fit_line(const Eigen::Vector3f pts[5], double ratio, Match& m) {
 
 // Plane through the 5 points when all lie within max_dist of it.
 bool fit_plane(const Eigen::Vector3f pts[5], double max_dist, Match& m) {
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (int i = 0; i < 5; ++i) c += pts[i].cast<double>();
-  c /= 5.0;
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (int i = 0; i < 5; ++i) {
-    const Eigen::Vector3d d = pts[i].cast<double>() - c;
-    cov += d * d.transpose();
-  }
+  Eigen::Vector3d c;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
-  es.computeDirect(cov);
+  principal_axes(pts, c, es);
   const Eigen::Vector3d n = es.eigenvectors().col(0).normalized();
   if (!(es.eigenvalues()(1) > 0)) return false;  // all on one line (or one point)
   for (int i = 0; i < 5; ++i)

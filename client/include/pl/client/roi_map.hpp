@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "pl/client/map_tile.hpp"
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
 
@@ -45,11 +46,7 @@ class RoiMap {
   // Makes the held tiles exactly `tiles` (key, content hash, decoded cloud): adds the new ones,
   // drops the ones not listed, keeps the rest untouched. Tiles without normals are skipped (the
   // localizer needs them). Returns the number of tiles added + removed.
-  struct TileRef {
-    TileKey key;
-    std::string hash;
-    std::shared_ptr<const TileCloud> cloud;
-  };
+  using TileRef = MapTile;
   std::size_t update(const std::vector<TileRef>& tiles);
 
   // Nearest map point to q (anchor coordinates) within sqrt(max_dist2) (at most cell_m).

@@ -25,18 +25,11 @@
 #include <string>
 #include <vector>
 
+#include "pl/client/map_tile.hpp"
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
 
 namespace pl::client {
-
-// One decoded tile held in memory.
-struct MapTile {
-  TileKey key;
-  std::string hash;  // content hash (the server's ETag): SHA-256 of the Draco bytes, 64 lowercase hex
-  std::shared_ptr<const TileCloud> cloud;  // decoded points (map ENU frame), normals, intensity
-  std::size_t bytes = 0;                   // Draco bytes
-};
 
 // What a decoded tile counts against TileClientConfig::memory_mb: 24 B per point, 12 per normal,
 // 4 per intensity.
