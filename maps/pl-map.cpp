@@ -1,5 +1,6 @@
 // pl-map: build maps from drives, cut them into Draco tiles in a versioned SQLite store, publish.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -14,6 +15,7 @@
 #include "pl/common/progress.hpp"
 #include "pl/common/text.hpp"
 #include "pl/maps/loam.hpp"
+#include "pl/maps/loop_closure.hpp"
 #include "pl/maps/map_builder.hpp"
 #include "pl/maps/pose_graph.hpp"
 #include "pl/maps/push.hpp"
@@ -24,7 +26,7 @@ namespace {
 const char* kUsage =
     "usage: pl-map COMMAND [options]\n"
     "\n"
-    "  build    --dataset DIR --out map.pcd [--poses gt|lidar] [--gps] [--traj-out poses.txt] [--report FILE.json]\n"
+    "  build    --dataset DIR --out map.pcd [--poses gt|lidar] [--gps] [--loops] [--traj-out poses.txt] [--report FILE.json]\n"
     "           [--deskew auto|on|off] [--voxel 0.2] [--every N] [--max-range 80]\n"
     "           merge a drive's scans at their ground-truth poses (gt) or at the poses of LiDAR odometry\n"
     "           alone (lidar; started at the first ground-truth pose when there is one; deskew auto: on\n"
@@ -32,8 +34,10 @@ const char* kUsage =
     "           frame, its geodetic origin recorded in the header); --traj-out writes the LiDAR pose of\n"
     "           every scan (KITTI format), line for line with the dataset; --gps (with --poses lidar): a pose graph\n"
     "           of keyframes over the odometry with the drive's GPS fixes (robust to multipath) sets the poses;\n"
-    "           --report writes JSON: keyframes, GPS edges and outliers, GPS residuals and the mean translation\n"
-    "           error against ground truth (when there is one) before and after the graph, solve time\n"
+    "           --loops (with --poses lidar): loop closures found by position and by a place descriptor, verified\n"
+    "           by ICP, join the graph (re-solved on each); --report writes JSON: keyframes, GPS edges and outliers,\n"
+    "           GPS residuals, loops proposed/accepted/rejected (and why), the mean translation error against\n"
+    "           ground truth (when there is one) before and after the graph, times\n"
     "  tile     --cloud FILE(.pcd|.ply|.bin) --db maps.sqlite --map NAME [--origin LAT,LON,ALT]\n"
     "           [--voxel 0.2] [--tile-size 20] [--normal-radius 0.6] [--max-error 0.005] [--note TEXT]\n"
     "           voxelize, estimate normals, cut into tiles, Draco-encode them and write a new staged\n"
@@ -58,6 +62,7 @@ int cmd_build(const pl::Args& a) {
   std::string out = a.require("--out", "FILE.pcd (where to write the map)");
   auto traj_out = a.get("--traj-out");
   const bool use_gps = a.has("--gps");
+  const bool use_loops = a.has("--loops");
   auto report_path = a.get("--report");
   std::string deskew = a.get_or("--deskew", "auto");
   pl::maps::MapBuildConfig cfg;
@@ -70,6 +75,7 @@ int cmd_build(const pl::Args& a) {
     throw pl::Error("--poses takes gt (the dataset's ground truth) or lidar (LiDAR odometry alone), not " + poses);
   if (deskew != "auto" && deskew != "on" && deskew != "off") throw pl::Error("--deskew takes auto, on or off, not " + deskew);
   if (use_gps && poses != "lidar") throw pl::Error("--gps needs --poses lidar (it corrects the LiDAR odometry)");
+  if (use_loops && poses != "lidar") throw pl::Error("--loops needs --poses lidar (it corrects the LiDAR odometry)");
   pl::Dataset ds = pl::open_dataset(dir);
   if (ds.size() == 0) throw pl::Error(ds.dir + ": no scans");
   std::vector<pl::maps::GpsEdge> gps_edges;
@@ -110,6 +116,14 @@ int cmd_build(const pl::Args& a) {
     std::vector<double> ms;
     std::vector<pl::maps::Information6> information;
     std::size_t degenerate = 0;
+    // The graph's keyframes are chosen by a causal rule, so their clouds for loop closure are kept
+    // as the odometry runs (thinned; the other scans are not held).
+    pl::maps::PoseGraphConfig gc;
+    std::vector<std::vector<Eigen::Vector3f>> keyframe_clouds;
+    pl::Pose last_keyframe = pl::Pose::Identity();
+    pl::ScanPrepConfig loop_prep = cfg.scan;
+    loop_prep.voxel_m = 0.3;
+    const auto t_start = std::chrono::steady_clock::now();
     pl::Progress bar("lidar odometry", ds.size());
     for (std::size_t i = 0; i < ds.size(); ++i) {
       pl::Scan scan = ds.load_scan(i);
@@ -118,6 +132,12 @@ int cmd_build(const pl::Args& a) {
       information.push_back(f.information);
       ms.push_back(f.ms);
       degenerate += f.degenerate;
+      if (use_loops && (i == 0 || pl::maps::is_new_keyframe(last_keyframe, f.pose, gc))) {
+        last_keyframe = f.pose;
+        std::vector<Eigen::Vector3f> cloud;
+        for (const pl::PointXYZI& p : pl::prepare_scan(scan, {}, loop_prep)) cloud.emplace_back(p.x, p.y, p.z);
+        keyframe_clouds.push_back(std::move(cloud));
+      }
       bar.update(i + 1);
     }
     bar.finish();
@@ -127,25 +147,72 @@ int cmd_build(const pl::Args& a) {
                 ms[ms.size() / 2], degenerate, ds.has_ground_truth() ? ", started at the first ground-truth pose" : ", in the first scan's frame");
     report["odometry"] = {{"median_ms", ms[ms.size() / 2]}, {"degenerate", degenerate}, {"deskew", lc.deskew}};
     if (ds.has_ground_truth()) report["mean_error_before_m"] = mean_error(placed);
-    if (use_gps) {
-      pl::maps::PoseGraphConfig gc;
-      pl::maps::PoseGraphReport r;
-      placed.poses = pl::maps::optimize_trajectory(placed.poses, information, gps_edges, ds.meta.vehicle.gps_lever_arm, gc, &r);
-      // The GPS fixes set the world frame: the map keeps the dataset's origin even without ground truth.
-      origin = ds.meta.origin;
-      std::printf("pose graph: %zu keyframes, %zu GPS edges (%zu outliers), GPS residual RMS %.3f m -> %.3f m, %d iterations, "
-                  "%.0f ms (%s)\n",
-                  r.keyframes, r.gps_edges, r.gps_outliers, r.gps_rms_before_m, r.gps_rms_after_m, r.iterations, r.solve_ms,
-                  r.termination.c_str());
+    if (use_gps || use_loops) {
+      pl::maps::PoseGraph graph(placed.poses, information, gps_edges, ds.meta.vehicle.gps_lever_arm, gc);
+      graph.optimize();
+      if (use_gps) {
+        // The GPS fixes set the world frame: the map keeps the dataset's origin even without ground truth.
+        origin = ds.meta.origin;
+        if (ds.has_ground_truth()) {
+          pl::Trajectory t = placed;
+          t.poses = graph.poses();
+          report["mean_error_gps_m"] = mean_error(t);
+        }
+      }
+      if (use_loops) {
+        pl::maps::LoopClosureConfig lcc;
+        pl::Progress loop_bar("loop closure", graph.keyframes().size());
+        const pl::maps::LoopReport lr =
+            pl::maps::close_loops(graph, keyframe_clouds, lcc, [&](std::size_t done, std::size_t) { loop_bar.update(done); });
+        loop_bar.finish();
+        std::printf("loop closure: %zu queries, proposed %zu by position and %zu by place; %zu accepted, %zu rejected; "
+                    "loop residual median %.3f m -> %.3f m; %.1f s verifying\n",
+                    lr.queries, lr.proposed_by_position, lr.proposed_by_descriptor, lr.accepted, lr.rejected, lr.residual_before_m,
+                    lr.residual_after_m, lr.verify_ms / 1000.0);
+        nlohmann::json loops = nlohmann::json::array();
+        for (const pl::maps::LoopRecord& l : lr.loops)
+          loops.push_back({{"query_scan", graph.keyframes()[l.query]},
+                           {"match_scan", graph.keyframes()[l.match]},
+                           {"proposed_by", l.by_descriptor ? "place" : "position"},
+                           {"accepted", l.accepted},
+                           {"reason", l.reason},
+                           {"descriptor_distance", l.descriptor_distance},
+                           {"overlap", l.overlap},
+                           {"rms_m", l.rms_m},
+                           {"correction_m", l.correction_m},
+                           {"drift_m", l.drift_m}});
+        report["loops"] = {{"queries", lr.queries},
+                           {"proposed_by_position", lr.proposed_by_position},
+                           {"proposed_by_place", lr.proposed_by_descriptor},
+                           {"accepted", lr.accepted},
+                           {"rejected", lr.rejected},
+                           {"rejected_by_reason", lr.rejected_by_reason},
+                           {"residual_before_m", lr.residual_before_m},
+                           {"residual_after_m", lr.residual_after_m},
+                           {"verify_ms", lr.verify_ms},
+                           {"edges", loops}};
+      }
+      placed.poses = graph.poses();
+      const pl::maps::PoseGraphReport r = graph.report();
+      std::printf("pose graph: %zu keyframes, %zu GPS edges (%zu outliers), %zu loop edges, GPS residual RMS %.3f m -> %.3f m, "
+                  "%d solves, %d iterations, %.0f ms (%s)\n",
+                  r.keyframes, r.gps_edges, r.gps_outliers, r.loop_edges, r.gps_rms_before_m, r.gps_rms_after_m, r.solves, r.iterations,
+                  r.solve_ms, r.termination.c_str());
       report["pose_graph"] = {{"keyframes", r.keyframes},
                               {"gps_edges", r.gps_edges},
                               {"gps_outliers", r.gps_outliers},
                               {"gps_rms_before_m", r.gps_rms_before_m},
                               {"gps_rms_after_m", r.gps_rms_after_m},
+                              {"loop_edges", r.loop_edges},
+                              {"solves", r.solves},
                               {"iterations", r.iterations},
                               {"solve_ms", r.solve_ms},
                               {"termination", r.termination}};
     }
+    const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+    report["trajectory_ms_per_scan"] = 1000.0 * total_s / static_cast<double>(ds.size());
+    std::printf("trajectory: %.1f ms a scan in all (odometry%s%s)\n", 1000.0 * total_s / static_cast<double>(ds.size()),
+                use_gps ? " + GPS" : "", use_loops ? " + loops" : "");
     if (ds.has_ground_truth()) report["mean_error_after_m"] = mean_error(placed);
   }
   if (report_path) {
@@ -158,7 +225,11 @@ int cmd_build(const pl::Args& a) {
     pl::Trajectory kitti = placed;
     kitti.format = pl::PoseFormat::Kitti;
     pl::write_kitti_poses(*traj_out, kitti);
-    const char* source = poses == "gt" ? "ground truth" : use_gps ? "lidar odometry + GPS pose graph" : "lidar odometry";
+    const char* source = poses == "gt"            ? "ground truth"
+                         : use_gps && use_loops ? "lidar odometry + GPS + loops pose graph"
+                         : use_gps              ? "lidar odometry + GPS pose graph"
+                         : use_loops            ? "lidar odometry + loops pose graph"
+                                                : "lidar odometry";
     std::printf("wrote %s: %zu LiDAR poses (%s), one per scan\n", traj_out->c_str(), kitti.size(), source);
   }
   std::size_t scans = (ds.size() + cfg.every - 1) / cfg.every;
@@ -389,7 +460,7 @@ int body(int argc, char** argv) {
     return argc < 2 ? 2 : 0;
   }
   std::string cmd = argv[1];
-  pl::Args args(argc, argv, 2, {"--gps"});
+  pl::Args args(argc, argv, 2, {"--gps", "--loops"});
   if (!args.positional().empty()) throw pl::Error("unexpected argument \"" + args.positional()[0] + "\" (see pl-map --help)");
   if (cmd == "build") return cmd_build(args);
   if (cmd == "tile") return cmd_tile(args);

@@ -1,14 +1,20 @@
-// pl-dataset: what a drive folder holds, and its ground-truth poses.
+// pl-dataset: what a drive folder holds, its ground-truth poses and GPS, and a copy of a drive with
+// a degraded (consumer-grade) GPS.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <string>
 
 #include "pl/common/cli.hpp"
 #include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
+#include "pl/common/geo.hpp"
 #include "pl/common/progress.hpp"
 #include "pl/common/voxel.hpp"
 
@@ -20,6 +26,7 @@ const char* kUsage =
     "       pl-dataset scans DIR [--beams 16] [--fov 360] [--min-range 2] [--max-range 100] [--voxel 0.2]\n"
     "                           [--timing FILE.csv]\n"
     "       pl-dataset gps DIR --out FILE.tum [--truth FILE.tum] [--status rtk-fixed|rtk-float|dgps|single]\n"
+    "       pl-dataset degrade-gps DIR --out OUT_DIR [--rate 1] [--sigma 1.5] [--seed 1]\n"
     "\n"
     "info   the layout found, scans, duration, points per scan, beams, ground-truth path length,\n"
     "       GPS fixes and their status mix, and the sidecar files present (or what is wrong).\n"
@@ -29,7 +36,12 @@ const char* kUsage =
     "       grid) and reports points in and out; --timing writes frame,points_in,points_out,prepare_ms.\n"
     "gps    the GPS fixes as positions in the dataset's world frame (TUM, identity rotations);\n"
     "       --truth writes where the antenna really was at each fix (ground truth + lever arm), so that\n"
-    "       pl-eval ape --est FILE --gt TRUTH measures the receiver; --status keeps the fixes of one status.\n";
+    "       pl-eval ape --est FILE --gt TRUTH measures the receiver; --status keeps the fixes of one status.\n"
+    "degrade-gps  writes OUT_DIR: the same drive (every file of DIR reached through a symlink, nothing\n"
+    "       copied) with a consumer-grade gps.csv: DIR's GPS fixes thinned to --rate Hz, each moved by\n"
+    "       zero-mean Gaussian noise of --sigma metres per horizontal axis (east, north) and 1.5 x sigma\n"
+    "       vertically, status single, std_m = sigma. Same seed, same file. OUT_DIR must not exist, be\n"
+    "       empty, or be an earlier degrade-gps output (it is replaced).\n";
 
 double median_of(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -259,6 +271,156 @@ int cmd_gps(const pl::Args& args) {
   return 0;
 }
 
+// Standard normal deviates from a 64-bit Mersenne Twister by the Box-Muller transform: the same
+// numbers on every platform for a seed (std::normal_distribution is implementation-defined).
+class Gaussian {
+ public:
+  explicit Gaussian(std::uint64_t seed) : rng_(seed) {}
+  double operator()() {
+    if (has_spare_) {
+      has_spare_ = false;
+      return spare_;
+    }
+    const double u1 = 1.0 - static_cast<double>(rng_() >> 11) * 0x1.0p-53;  // (0, 1]
+    const double u2 = static_cast<double>(rng_() >> 11) * 0x1.0p-53;        // [0, 1)
+    const double r = std::sqrt(-2.0 * std::log(u1));
+    spare_ = r * std::sin(2.0 * M_PI * u2);
+    has_spare_ = true;
+    return r * std::cos(2.0 * M_PI * u2);
+  }
+
+ private:
+  std::mt19937_64 rng_;
+  double spare_ = 0.0;
+  bool has_spare_ = false;
+};
+
+double rms(const std::vector<double>& v) {
+  double s = 0.0;
+  for (double x : v) s += x * x;
+  return v.empty() ? 0.0 : std::sqrt(s / static_cast<double>(v.size()));
+}
+
+// Makes `out` an empty folder for degrade-gps: it may not exist yet, be empty, or hold an earlier
+// output (only symlinks and gps.csv), which is cleared. It must not be the source or inside it.
+void prepare_output_folder(const std::string& source, const std::string& out) {
+  namespace fs = std::filesystem;
+  const fs::path src = fs::canonical(source);
+  const fs::path dst = fs::weakly_canonical(out);
+  auto [s_end, d_it] = std::mismatch(src.begin(), src.end(), dst.begin(), dst.end());
+  if (s_end == src.end())
+    throw pl::Error("--out " + out + " is " + (d_it == dst.end() ? "the source folder itself" : "inside the source folder " + source) +
+                    "; choose a folder outside it, e.g. " + (src.parent_path() / (src.filename().string() + "-consumer")).string());
+  if (!fs::exists(fs::symlink_status(out))) {
+    fs::create_directories(out);
+    return;
+  }
+  if (!fs::is_directory(fs::symlink_status(out)))
+    throw pl::Error("--out " + out + " exists and is not a folder; remove it or choose another path");
+  std::vector<fs::path> entries;
+  for (const auto& e : fs::directory_iterator(out)) {
+    const bool ours = e.is_symlink() || (e.path().filename() == "gps.csv" && e.is_regular_file());
+    if (!ours)
+      throw pl::Error("--out " + out + " already holds " + e.path().filename().string() +
+                      ", which is not part of an earlier degrade-gps output (only symlinks and gps.csv are); remove the "
+                      "folder or choose another one");
+    entries.push_back(e.path());
+  }
+  for (const auto& e : entries) fs::remove(e);
+}
+
+int cmd_degrade_gps(const pl::Args& args) {
+  namespace fs = std::filesystem;
+  if (args.positional().size() != 2)
+    throw pl::Error("degrade-gps takes one folder: pl-dataset degrade-gps DIR --out OUT_DIR [--rate 1] [--sigma 1.5] [--seed 1]");
+  const std::string out = args.require("--out", "OUT_DIR (the folder of the drive with the degraded GPS)");
+  const double rate = args.get_double("--rate", 1.0);
+  const double sigma = args.get_double("--sigma", 1.5);
+  const long long seed = args.get_int("--seed", 1);
+  args.finish();
+  if (!(rate > 0.0) || !std::isfinite(rate)) throw pl::Error("--rate takes fixes per second above 0, e.g. --rate 1");
+  if (!(sigma >= 0.0) || !std::isfinite(sigma)) throw pl::Error("--sigma takes metres (>= 0), e.g. --sigma 1.5");
+  if (seed < 0) throw pl::Error("--seed takes a whole number >= 0");
+
+  const pl::Dataset ds = pl::open_dataset(args.positional()[1]);
+  std::vector<pl::GpsFix> source;
+  for (const auto& f : ds.gps)
+    if (f.status != pl::kGpsNone) source.push_back(f);
+  if (source.empty())
+    throw pl::Error(ds.dir + ": no GPS fixes with a position to degrade (a raw drive's oxts/ or a gps.csv with status 1-4)");
+  // The source rate from its span, so that --rate cannot ask for more fixes than there are.
+  const double span = source.back().t - source.front().t;
+  if (source.size() > 1 && span > 0.0) {
+    const double source_rate = static_cast<double>(source.size() - 1) / span;
+    if (rate > source_rate * 1.05) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "--rate %g Hz is above the rate of the source GPS (%.2f Hz, %zu fixes over %.1f s)",
+                    rate, source_rate, source.size(), span);
+      throw pl::Error(ds.dir + ": " + buf + "; pick --rate at most that");
+    }
+  }
+
+  // Thinning: the first fix at or after each multiple of 1/rate since the first fix.
+  std::vector<pl::GpsFix> kept;
+  long long last_slot = -1;
+  for (const auto& f : source) {
+    const auto slot = static_cast<long long>(std::floor((f.t - source.front().t) * rate + 1e-6));
+    if (slot <= last_slot) continue;
+    last_slot = slot;
+    kept.push_back(f);
+  }
+
+  // Noise in the local East-North-Up frame of each fix.
+  Gaussian normal(static_cast<std::uint64_t>(seed));
+  std::vector<pl::GpsFix> noisy;
+  std::vector<double> de, dn, du, dh;
+  for (const auto& f : kept) {
+    const pl::EnuFrame enu(f.position);
+    const Eigen::Vector3d offset(sigma * normal(), sigma * normal(), 1.5 * sigma * normal());
+    noisy.push_back({f.t, enu.to_geodetic(offset), sigma, pl::kGpsSingle});
+  }
+
+  prepare_output_folder(ds.dir, out);
+  const fs::path src = fs::canonical(ds.dir);
+  std::size_t links = 0;
+  for (const auto& e : fs::directory_iterator(src)) {
+    if (e.path().filename() == "gps.csv") continue;  // replaced below
+    fs::create_symlink(fs::canonical(e.path()), fs::path(out) / e.path().filename());
+    ++links;
+  }
+  const std::string csv_path = (fs::path(out) / "gps.csv").string();
+  std::FILE* csv = std::fopen(csv_path.c_str(), "w");
+  if (!csv) throw pl::Error(csv_path + ": cannot write");
+  std::fprintf(csv, "# consumer-grade GPS made by pl-dataset degrade-gps from %s: %zu of %zu fixes (%g Hz), noise sigma %g m "
+                    "east and north, %g m up, seed %lld\n",
+               src.string().c_str(), noisy.size(), source.size(), rate, sigma, 1.5 * sigma, seed);
+  std::fprintf(csv, "t,lat,lon,alt,std_m,status\n");
+  for (const auto& f : noisy)
+    std::fprintf(csv, "%.6f,%.10f,%.10f,%.4f,%.3f,%d\n", f.t, f.position.lat_deg, f.position.lon_deg, f.position.alt_m,
+                 f.std_m, f.status);
+  if (std::fclose(csv) != 0) throw pl::Error(csv_path + ": write failed (disk full?)");
+
+  // Read the new drive back and measure its fixes against the source's, as written (rounded).
+  const pl::Dataset check = pl::open_dataset(out);
+  if (check.gps.size() != kept.size()) throw pl::Error(csv_path + ": read back " + std::to_string(check.gps.size()) + " fixes, wrote " + std::to_string(kept.size()));
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    const Eigen::Vector3d d = pl::EnuFrame(kept[i].position).to_enu(check.gps[i].position);
+    de.push_back(d.x());
+    dn.push_back(d.y());
+    du.push_back(d.z());
+    dh.push_back(d.head<2>().norm());
+  }
+  double mean_h = 0.0;
+  for (double h : dh) mean_h += h / static_cast<double>(dh.size());
+  std::printf("wrote %s: %zu scans through %zu symlinks to %s, and gps.csv\n", out.c_str(), check.size(), links,
+              src.string().c_str());
+  std::printf("gps.csv        %zu fixes at %g Hz (of %zu source fixes over %.1f s), status single, std_m %.3f, seed %lld\n",
+              noisy.size(), rate, source.size(), span, sigma, seed);
+  std::printf("noise added    rms east %.3f m, north %.3f m, up %.3f m; horizontal mean %.3f m, max %.3f m\n", rms(de),
+              rms(dn), rms(du), mean_h, dh.empty() ? 0.0 : *std::max_element(dh.begin(), dh.end()));
+  return 0;
+}
+
 int body(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
     std::fputs(kUsage, argc < 2 ? stderr : stdout);
@@ -270,7 +432,8 @@ int body(int argc, char** argv) {
   if (cmd == "poses") return cmd_poses(args);
   if (cmd == "scans") return cmd_scans(args);
   if (cmd == "gps") return cmd_gps(args);
-  throw pl::Error("unknown command \"" + cmd + "\" (info, poses, scans or gps; see --help)");
+  if (cmd == "degrade-gps") return cmd_degrade_gps(args);
+  throw pl::Error("unknown command \"" + cmd + "\" (info, poses, scans, gps or degrade-gps; see --help)");
 }
 
 }  // namespace

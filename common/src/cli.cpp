@@ -45,6 +45,17 @@ std::optional<std::string> Args::get(const std::string& flag) const {
   return out;
 }
 
+std::vector<std::string> Args::get_all(const std::string& flag) const {
+  known_.insert(flag);
+  std::vector<std::string> out;
+  for (const auto& f : flags_) {
+    if (f.first != flag) continue;
+    if (!f.second) throw Error(flag + " needs a value (" + flag + " VALUE)");
+    out.push_back(*f.second);
+  }
+  return out;
+}
+
 std::string Args::get_or(const std::string& flag, const std::string& fallback) const {
   auto v = get(flag);
   return v ? *v : fallback;

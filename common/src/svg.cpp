@@ -53,6 +53,22 @@ std::string fmt(const char* format, double v) {
 
 std::string px(double v) { return fmt("%.2f", v); }
 
+// Shade level of a value in [0, 1] (clamped; NaN is the lightest).
+int cell_level(double shade) {
+  if (!(shade > 0.0)) return 0;
+  if (shade >= 1.0) return SvgPlot::kCellShades - 1;
+  return std::min(SvgPlot::kCellShades - 1, static_cast<int>(shade * SvgPlot::kCellShades));
+}
+
+// Light grey (#e4e4e4) at level 0 to dark grey (#2a2a2a) at the last level.
+std::string level_color(int level) {
+  const int l = std::clamp(level, 0, SvgPlot::kCellShades - 1);
+  const unsigned v = static_cast<unsigned>(0xe4 - (0xe4 - 0x2a) * l / (SvgPlot::kCellShades - 1)) & 0xffu;
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "#%02x%02x%02x", v, v, v);
+  return buf;
+}
+
 std::string tick_label(double v, double step) {
   if (std::fabs(v) < step * 1e-6) v = 0.0;  // no "-0" or 1e-17
   if (std::fabs(v) >= 1e7 || (step < 1e-6 && v != 0.0)) return fmt("%g", v);
@@ -89,31 +105,33 @@ std::string xml_escape(const std::string& text) {
   return out;
 }
 
+std::string SvgPlot::cell_color(double shade) { return level_color(cell_level(shade)); }
+
 SvgPlot::SvgPlot(std::string title, std::string x_label, std::string y_label)
     : title_(std::move(title)), x_label_(std::move(x_label)), y_label_(std::move(y_label)) {}
 
 void SvgPlot::add_line(const std::string& label, const std::vector<double>& x, const std::vector<double>& y,
                        const std::string& color, double stroke_width, bool dashed) {
-  series_.push_back({Kind::Line, label, x, y, color, stroke_width, dashed});
+  series_.push_back({Kind::Line, label, x, y, color, stroke_width, dashed, {}});
 }
 
 void SvgPlot::add_points(const std::string& label, const std::vector<double>& x, const std::vector<double>& y,
                          const std::string& color, double radius) {
-  series_.push_back({Kind::Points, label, x, y, color, radius, false});
+  series_.push_back({Kind::Points, label, x, y, color, radius, false, {}});
 }
 
 void SvgPlot::add_hline(const std::string& label, double y, const std::string& color, bool dashed) {
-  series_.push_back({Kind::HLine, label, {}, {y}, color, 1.5, dashed});
+  series_.push_back({Kind::HLine, label, {}, {y}, color, 1.5, dashed, {}});
 }
 
 void SvgPlot::add_vline(const std::string& label, double x, const std::string& color, bool dashed) {
-  series_.push_back({Kind::VLine, label, {x}, {}, color, 1.5, dashed});
+  series_.push_back({Kind::VLine, label, {x}, {}, color, 1.5, dashed, {}});
 }
 
 void SvgPlot::add_bars(const std::string& label, const std::vector<double>& edges, const std::vector<double>& heights,
                        const std::string& color) {
   if (edges.size() != heights.size() + 1) throw Error("bar plot needs one more edge than bars");
-  series_.push_back({Kind::Bars, label, edges, heights, color, 0.0, false});
+  series_.push_back({Kind::Bars, label, edges, heights, color, 0.0, false, {}});
 }
 
 // The "x,y x,y ..." pixel lists of a series' runs of finite points (a NaN ends a run).
@@ -131,9 +149,63 @@ static std::vector<std::string> point_runs(const SvgPlot::Series& s, SX&& sx, SY
   return runs;
 }
 
+// The cells of a series as one <path> per shade level; each run of horizontally adjacent cells of
+// the same level is one rectangle, written with absolute H/V moves so that neighbouring runs share
+// their rounded edges exactly.
+template <typename SX, typename SY>
+static std::string cells_svg(const SvgPlot::Series& s, SX&& sx, SY&& sy) {
+  struct Cell {
+    int level;
+    long long row, col;
+    bool operator<(const Cell& o) const {
+      return level != o.level ? level < o.level : row != o.row ? row < o.row : col < o.col;
+    }
+  };
+  double x_ref = std::numeric_limits<double>::infinity(), y_ref = x_ref;
+  for (std::size_t i = 0; i < s.x.size(); ++i)
+    if (std::isfinite(s.x[i]) && std::isfinite(s.y[i])) {
+      x_ref = std::min(x_ref, s.x[i]);
+      y_ref = std::min(y_ref, s.y[i]);
+    }
+  std::vector<Cell> cells;
+  cells.reserve(s.x.size());
+  for (std::size_t i = 0; i < s.x.size(); ++i)
+    if (std::isfinite(s.x[i]) && std::isfinite(s.y[i]))
+      cells.push_back({cell_level(s.value[i]), std::llround((s.y[i] - y_ref) / s.size),
+                       std::llround((s.x[i] - x_ref) / s.size)});
+  std::sort(cells.begin(), cells.end());
+  auto f1 = [](double v) { return fmt("%.1f", v); };
+  std::string o = "<g stroke=\"none\" shape-rendering=\"crispEdges\">\n";
+  for (std::size_t i = 0; i < cells.size();) {
+    const int level = cells[i].level;
+    std::string d;
+    while (i < cells.size() && cells[i].level == level) {
+      std::size_t j = i;
+      while (j + 1 < cells.size() && cells[j + 1].level == level && cells[j + 1].row == cells[i].row &&
+             cells[j + 1].col == cells[j].col + 1)
+        ++j;
+      const double x0 = sx(x_ref + static_cast<double>(cells[i].col) * s.size);
+      const double x1 = sx(x_ref + static_cast<double>(cells[j].col + 1) * s.size);
+      const double y0 = sy(y_ref + static_cast<double>(cells[i].row + 1) * s.size);  // top edge in pixels
+      const double y1 = sy(y_ref + static_cast<double>(cells[i].row) * s.size);
+      d += "M" + f1(x0) + " " + f1(y0) + "H" + f1(x1) + "V" + f1(y1) + "H" + f1(x0) + "z";
+      i = j + 1;
+    }
+    o += "<path fill=\"" + level_color(level) + "\" d=\"" + d + "\"/>\n";
+  }
+  return o + "</g>\n";
+}
+
 void SvgPlot::add_polygons(const std::string& label, const std::vector<double>& x, const std::vector<double>& y,
                            const std::string& color, double opacity) {
-  series_.push_back({Kind::Polygons, label, x, y, color, opacity, false});
+  series_.push_back({Kind::Polygons, label, x, y, color, opacity, false, {}});
+}
+
+void SvgPlot::add_cells(const std::string& label, double size, const std::vector<double>& x,
+                        const std::vector<double>& y, const std::vector<double>& shade) {
+  if (!(size > 0.0) || !std::isfinite(size)) throw Error("grid cells need a positive size");
+  if (x.size() != y.size() || x.size() != shade.size()) throw Error("grid cells need as many x, y and shade values");
+  series_.push_back({Kind::Cells, label, x, y, cell_color(0.5), size, false, shade});
 }
 
 std::string SvgPlot::to_string() const {
@@ -147,6 +219,10 @@ std::string SvgPlot::to_string() const {
       for (double v : s.x) xr.add(v);
     for (double v : s.y) yr.add(v);
     if (s.kind == Kind::Bars) yr.add(0.0);
+    if (s.kind == Kind::Cells) {
+      for (double v : s.x) xr.add(v + s.size);
+      for (double v : s.y) yr.add(v + s.size);
+    }
   }
   if (y_from_zero_) yr.add(0.0);
   widen(xr);
@@ -224,6 +300,9 @@ std::string SvgPlot::to_string() const {
         o += "</g>\n";
         break;
       }
+      case Kind::Cells:
+        o += cells_svg(s, sx, sy);
+        break;
       case Kind::Points:
         break;  // drawn after the frame, unclipped, so that markers on the axes show whole
       case Kind::HLine:
@@ -283,6 +362,10 @@ std::string SvgPlot::to_string() const {
         case Kind::Polygons:
           for (std::size_t i = 0; i < n; ++i) cost += std::isfinite(s.x[i]) && inside(sx(s.x[i]), sy(s.y[i])) ? 8 : 0;
           break;
+        case Kind::Cells:
+          for (std::size_t i = 0; i < n; ++i)
+            cost += inside(sx(s.x[i] + 0.5 * s.size), sy(s.y[i] + 0.5 * s.size)) ? 1 : 0;
+          break;
         case Kind::HLine:
           if (!s.y.empty() && sy(s.y[0]) >= by && sy(s.y[0]) <= by + bh) cost += 20;
           break;
@@ -331,7 +414,7 @@ std::string SvgPlot::to_string() const {
     for (const auto& s : series_) {
       if (s.label.empty()) continue;
       const std::string dash = s.dashed ? " stroke-dasharray=\"6 4\"" : "";
-      if (s.kind == Kind::Bars || s.kind == Kind::Polygons)
+      if (s.kind == Kind::Bars || s.kind == Kind::Polygons || s.kind == Kind::Cells)
         o += "<rect x=\"" + px(lx + 8) + "\" y=\"" + px(y - 9) + "\" width=\"22\" height=\"10\" fill=\"" + s.color +
              "\"/>\n";
       else if (s.kind == Kind::Points)

@@ -80,6 +80,21 @@ struct GpsResidual {
   }
 };
 
+// The world's up direction seen from a keyframe (R^T z) against where the odometry had it, in
+// radians over sigma: roll and pitch, not yaw.
+struct TiltResidual {
+  Eigen::Vector3d up_body;
+  double inv_sigma;
+
+  template <typename T>
+  bool operator()(const T* q, T* out) const {
+    Eigen::Map<const Eigen::Quaternion<T>> r(q);
+    const Eigen::Matrix<T, 3, 1> up = r.conjugate() * Eigen::Matrix<T, 3, 1>(T(0), T(0), T(1));
+    for (int k = 0; k < 3; ++k) out[k] = (up[k] - T(up_body[k])) * T(inv_sigma);
+    return true;
+  }
+};
+
 double gps_sigma(const GpsEdge& g, const PoseGraphConfig& cfg) {
   double s = std::max(g.std_m, cfg.min_gps_std_m);
   if (g.status == kGpsFloat) s = std::max(s, cfg.float_min_std_m);
@@ -134,67 +149,90 @@ Pose align_to_gps(const std::vector<Node>& nodes, const std::vector<GpsOnKeyfram
 
 }  // namespace
 
-PoseList optimize_trajectory(const PoseList& odometry_poses, const std::vector<Information6>& information,
-                             const std::vector<GpsEdge>& gps, const Eigen::Vector3d& lever_arm, const PoseGraphConfig& cfg,
-                             PoseGraphReport* report) {
+bool is_new_keyframe(const Pose& last, const Pose& pose, const PoseGraphConfig& cfg) {
+  const Pose d = last.inverse() * pose;
+  return d.translation().norm() >= cfg.keyframe_m || rotation_angle(d) >= cfg.keyframe_deg * kDeg;
+}
+
+struct PoseGraph::Impl {
+  PoseGraphConfig cfg;
+  PoseList odometry;                       // one per scan, as given
+  std::vector<std::size_t> keyframes, owner;  // keyframe scans; the keyframe each scan hangs from
+  PoseList keyframe_odometry;
+  std::vector<Node> nodes;                 // the estimate (stable addresses: Ceres holds pointers)
+  std::vector<GpsOnKeyframe> fixes;
+  ceres::Problem problem;
+  std::vector<ceres::ResidualBlockId> loops;  // nullptr once removed
+  PoseGraphReport rep;
+};
+
+PoseGraph::PoseGraph(const PoseList& odometry_poses, const std::vector<Information6>& information, const std::vector<GpsEdge>& gps,
+                     const Eigen::Vector3d& lever_arm, const PoseGraphConfig& cfg)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& g = *impl_;
+  g.cfg = cfg;
+  g.odometry = odometry_poses;
   const std::size_t n = odometry_poses.size();
   if (!information.empty() && information.size() != n)
     throw Error("pose graph: " + std::to_string(information.size()) + " information matrices for " + std::to_string(n) + " poses");
-  for (const GpsEdge& g : gps)
-    if (g.scan >= n) throw Error("pose graph: a GPS edge names scan " + std::to_string(g.scan) + " of " + std::to_string(n));
-  PoseGraphReport rep;
-  if (n == 0) {
-    rep.termination = "skipped";
-    if (report) *report = rep;
-    return {};
-  }
+  for (const GpsEdge& e : gps)
+    if (e.scan >= n) throw Error("pose graph: a GPS edge names scan " + std::to_string(e.scan) + " of " + std::to_string(n));
+  g.rep.termination = "skipped";
+  if (n == 0) return;
 
   // Keyframes, and for every scan the keyframe it hangs from.
-  std::vector<std::size_t> keyframes{0}, owner(n, 0);
+  g.keyframes = {0};
+  g.owner.assign(n, 0);
   for (std::size_t i = 1; i < n; ++i) {
-    const Pose d = odometry_poses[keyframes.back()].inverse() * odometry_poses[i];
-    if (d.translation().norm() >= cfg.keyframe_m || rotation_angle(d) >= cfg.keyframe_deg * kDeg) keyframes.push_back(i);
-    owner[i] = keyframes.size() - 1;
+    if (is_new_keyframe(odometry_poses[g.keyframes.back()], odometry_poses[i], cfg)) g.keyframes.push_back(i);
+    g.owner[i] = g.keyframes.size() - 1;
   }
-  rep.keyframes = keyframes.size();
-  std::vector<Node> nodes(keyframes.size());
-  for (std::size_t k = 0; k < keyframes.size(); ++k) nodes[k] = node_from(odometry_poses[keyframes[k]]);
+  g.rep.keyframes = g.keyframes.size();
+  g.nodes.resize(g.keyframes.size());
+  for (std::size_t k = 0; k < g.keyframes.size(); ++k) {
+    g.keyframe_odometry.push_back(odometry_poses[g.keyframes[k]]);
+    g.nodes[k] = node_from(odometry_poses[g.keyframes[k]]);
+  }
 
   // GPS edges onto keyframes: the antenna at the fix's time as a point in its keyframe's frame.
-  std::vector<GpsOnKeyframe> fixes;
-  for (const GpsEdge& g : gps) {
-    if (g.status == kGpsNone) continue;
-    const std::size_t i = g.scan;
+  for (const GpsEdge& e : gps) {
+    if (e.status == kGpsNone) continue;
+    const std::size_t i = e.scan;
     Eigen::Vector3d p = lever_arm;
-    if (g.fraction > 0 && i + 1 < n) {
-      const Pose at = interpolate(odometry_poses[i], odometry_poses[i + 1], std::min(g.fraction, 1.0));
+    if (e.fraction > 0 && i + 1 < n) {
+      const Pose at = interpolate(odometry_poses[i], odometry_poses[i + 1], std::min(e.fraction, 1.0));
       p = odometry_poses[i].inverse() * (at * lever_arm);
     }
-    const std::size_t k = owner[i];
-    const Pose offset = odometry_poses[keyframes[k]].inverse() * odometry_poses[i];
-    const double s = gps_sigma(g, cfg);
-    fixes.push_back({k, offset * p, g.antenna_world, Eigen::Vector3d(s, s, s * cfg.gps_vertical_factor)});
+    const std::size_t k = g.owner[i];
+    const Pose offset = odometry_poses[g.keyframes[k]].inverse() * odometry_poses[i];
+    const double s = gps_sigma(e, cfg);
+    g.fixes.push_back({k, offset * p, e.antenna_world, Eigen::Vector3d(s, s, s * cfg.gps_vertical_factor)});
   }
-  rep.gps_edges = fixes.size();
-  if (!fixes.empty()) {
-    const Pose a = align_to_gps(nodes, fixes);
-    for (Node& node : nodes) node = node_from(a * pose_from(node));
+  g.rep.gps_edges = g.fixes.size();
+  if (!g.fixes.empty()) {
+    const Pose a = align_to_gps(g.nodes, g.fixes);
+    for (Node& node : g.nodes) node = node_from(a * pose_from(node));
   }
 
-  ceres::Problem problem;
-  for (Node& node : nodes) {
-    problem.AddParameterBlock(node.t, 3);
-    problem.AddParameterBlock(node.q, 4, new ceres::EigenQuaternionManifold);
+  for (Node& node : g.nodes) {
+    g.problem.AddParameterBlock(node.t, 3);
+    g.problem.AddParameterBlock(node.q, 4, new ceres::EigenQuaternionManifold);
   }
-  if (fixes.empty()) problem.SetParameterBlockConstant(nodes[0].t), problem.SetParameterBlockConstant(nodes[0].q);
+  if (g.fixes.empty()) {
+    g.problem.SetParameterBlockConstant(g.nodes[0].t), g.problem.SetParameterBlockConstant(g.nodes[0].q);
+  } else if (cfg.tilt_prior_deg > 0) {
+    const Eigen::Vector3d up_body = pose_from(g.nodes[0]).linear().transpose() * Eigen::Vector3d::UnitZ();
+    g.problem.AddResidualBlock(new ceres::AutoDiffCostFunction<TiltResidual, 3, 4>(new TiltResidual{up_body, 1.0 / (cfg.tilt_prior_deg * kDeg)}),
+                               nullptr, g.nodes[0].q);
+  }
 
   // Odometry edges: per-scan covariances summed along the edge, plus the drift floor.
   Information6 fallback = Information6::Zero();
   fallback.diagonal() << Eigen::Vector3d::Constant(1.0 / (cfg.fallback_sigma_m * cfg.fallback_sigma_m)),
       Eigen::Vector3d::Constant(1.0 / std::pow(cfg.fallback_sigma_deg * kDeg, 2));
   const double info_scale = 1.0 / (cfg.odometry_sigma_m * cfg.odometry_sigma_m);
-  for (std::size_t k = 1; k < keyframes.size(); ++k) {
-    const std::size_t a = keyframes[k - 1], b = keyframes[k];
+  for (std::size_t k = 1; k < g.keyframes.size(); ++k) {
+    const std::size_t a = g.keyframes[k - 1], b = g.keyframes[k];
     const Pose z = odometry_poses[a].inverse() * odometry_poses[b];
     Information6 cov = Information6::Zero();
     if (!information.empty())
@@ -211,53 +249,109 @@ PoseList optimize_trajectory(const PoseList& odometry_poses, const std::vector<I
     info = 0.5 * (info + info.transpose());
     Eigen::LLT<Information6> llt(info);
     auto* f = new OdometryResidual{z.translation(), Eigen::Quaterniond(z.linear()).normalized(), llt.matrixU()};
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<OdometryResidual, 6, 3, 4, 3, 4>(f), nullptr, nodes[k - 1].t,
-                             nodes[k - 1].q, nodes[k].t, nodes[k].q);
+    g.problem.AddResidualBlock(new ceres::AutoDiffCostFunction<OdometryResidual, 6, 3, 4, 3, 4>(f), nullptr, g.nodes[k - 1].t,
+                               g.nodes[k - 1].q, g.nodes[k].t, g.nodes[k].q);
   }
-  for (const GpsOnKeyframe& g : fixes) {
-    auto* f = new GpsResidual{g.body, g.world, g.sigma.cwiseInverse()};
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GpsResidual, 3, 3, 4>(f), new ceres::CauchyLoss(cfg.gps_kernel_sigmas),
-                             nodes[g.keyframe].t, nodes[g.keyframe].q);
+  for (const GpsOnKeyframe& e : g.fixes) {
+    auto* f = new GpsResidual{e.body, e.world, e.sigma.cwiseInverse()};
+    g.problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GpsResidual, 3, 3, 4>(f), new ceres::CauchyLoss(cfg.gps_kernel_sigmas),
+                               g.nodes[e.keyframe].t, g.nodes[e.keyframe].q);
   }
+}
 
+PoseGraph::~PoseGraph() = default;
+
+const std::vector<std::size_t>& PoseGraph::keyframes() const { return impl_->keyframes; }
+Pose PoseGraph::keyframe_pose(std::size_t k) const { return pose_from(impl_->nodes.at(k)); }
+const Pose& PoseGraph::odometry_pose(std::size_t k) const { return impl_->keyframe_odometry.at(k); }
+
+std::size_t PoseGraph::add_loop(std::size_t a, std::size_t b, const Pose& relative, const Information6& information) {
+  Impl& g = *impl_;
+  if (a >= g.nodes.size() || b >= g.nodes.size() || a == b)
+    throw Error("pose graph: a loop edge between keyframes " + std::to_string(a) + " and " + std::to_string(b) + " of " +
+                std::to_string(g.nodes.size()));
+  Information6 info = 0.5 * (information + information.transpose());
+  Eigen::LLT<Information6> llt(info);
+  if (llt.info() != Eigen::Success) throw Error("pose graph: a loop edge's information is not positive definite");
+  auto* f = new OdometryResidual{relative.translation(), Eigen::Quaterniond(relative.linear()).normalized(), llt.matrixU()};
+  ceres::LossFunction* loss = g.cfg.loop_kernel_sigmas > 0 ? new ceres::CauchyLoss(g.cfg.loop_kernel_sigmas) : nullptr;
+  g.loops.push_back(g.problem.AddResidualBlock(new ceres::AutoDiffCostFunction<OdometryResidual, 6, 3, 4, 3, 4>(f), loss, g.nodes[a].t,
+                                               g.nodes[a].q, g.nodes[b].t, g.nodes[b].q));
+  ++g.rep.loop_edges;
+  return g.loops.size() - 1;
+}
+
+void PoseGraph::remove_loop(std::size_t id) {
+  Impl& g = *impl_;
+  if (id >= g.loops.size() || g.loops[id] == nullptr) throw Error("pose graph: no loop edge " + std::to_string(id) + " to remove");
+  g.problem.RemoveResidualBlock(g.loops[id]);
+  g.loops[id] = nullptr;
+  --g.rep.loop_edges;
+}
+
+void PoseGraph::optimize(int max_iterations) {
+  Impl& g = *impl_;
+  if (g.nodes.empty()) return;
+  // Nothing to solve: a lone chain without GPS or loops stays as the odometry gave it.
+  if (g.fixes.empty() && g.rep.loop_edges == 0 && g.rep.solves == 0) {
+    g.rep.termination = "no gps or loops";
+    return;
+  }
   ceres::Solver::Options opt;
   opt.minimizer_type = ceres::TRUST_REGION;
   opt.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   opt.linear_solver_type = ceres::IsSparseLinearAlgebraLibraryTypeAvailable(opt.sparse_linear_algebra_library_type)
                                ? ceres::SPARSE_NORMAL_CHOLESKY
                                : ceres::DENSE_QR;
-  opt.max_num_iterations = cfg.max_iterations;
+  opt.max_num_iterations = max_iterations > 0 ? max_iterations : g.cfg.max_iterations;
   opt.num_threads = 1;
   opt.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   const auto t0 = std::chrono::steady_clock::now();
-  ceres::Solve(opt, &problem, &summary);
-  rep.solve_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  rep.iterations = static_cast<int>(summary.iterations.size() > 0 ? summary.iterations.size() - 1 : 0);
-  rep.termination = fixes.empty() ? "no gps" : ceres::TerminationTypeToString(summary.termination_type);
+  ceres::Solve(opt, &g.problem, &summary);
+  g.rep.solve_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  g.rep.iterations += static_cast<int>(summary.iterations.size() > 0 ? summary.iterations.size() - 1 : 0);
+  ++g.rep.solves;
+  g.rep.termination = ceres::TerminationTypeToString(summary.termination_type);
+}
 
-  // Outliers and GPS residuals before (the input trajectory) and after.
+PoseList PoseGraph::poses() const {
+  const Impl& g = *impl_;
+  PoseList out(g.odometry.size());
+  for (std::size_t i = 0; i < g.odometry.size(); ++i) {
+    const std::size_t k = g.owner[i];
+    out[i] = pose_from(g.nodes[k]) * (g.keyframe_odometry[k].inverse() * g.odometry[i]);
+  }
+  return out;
+}
+
+PoseGraphReport PoseGraph::report() const {
+  const Impl& g = *impl_;
+  PoseGraphReport rep = g.rep;
+  // Outliers and GPS residuals before (the input trajectory) and now.
   double before = 0, after = 0;
   std::size_t inliers = 0;
-  for (const GpsOnKeyframe& g : fixes) {
-    const Eigen::Vector3d e_after = pose_from(nodes[g.keyframe]) * g.body - g.world;
-    if (e_after.cwiseQuotient(g.sigma).norm() > cfg.gps_outlier_sigmas) {
+  for (const GpsOnKeyframe& e : g.fixes) {
+    const Eigen::Vector3d e_after = pose_from(g.nodes[e.keyframe]) * e.body - e.world;
+    if (e_after.cwiseQuotient(e.sigma).norm() > g.cfg.gps_outlier_sigmas) {
       ++rep.gps_outliers;
       continue;
     }
-    const Eigen::Vector3d e_before = odometry_poses[keyframes[g.keyframe]] * g.body - g.world;
+    const Eigen::Vector3d e_before = g.keyframe_odometry[e.keyframe] * e.body - e.world;
     before += e_before.squaredNorm(), after += e_after.squaredNorm();
     ++inliers;
   }
   if (inliers > 0) rep.gps_rms_before_m = std::sqrt(before / inliers), rep.gps_rms_after_m = std::sqrt(after / inliers);
+  return rep;
+}
 
-  PoseList out(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::size_t k = owner[i];
-    out[i] = pose_from(nodes[k]) * (odometry_poses[keyframes[k]].inverse() * odometry_poses[i]);
-  }
-  if (report) *report = rep;
-  return out;
+PoseList optimize_trajectory(const PoseList& odometry_poses, const std::vector<Information6>& information,
+                             const std::vector<GpsEdge>& gps, const Eigen::Vector3d& lever_arm, const PoseGraphConfig& cfg,
+                             PoseGraphReport* report) {
+  PoseGraph graph(odometry_poses, information, gps, lever_arm, cfg);
+  graph.optimize();
+  if (report) *report = graph.report();
+  return graph.poses();
 }
 
 std::vector<GpsEdge> gps_edges_from_dataset(const Dataset& ds, double max_dt_s) {

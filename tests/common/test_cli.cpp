@@ -24,6 +24,17 @@ TEST(Cli, FlagsSwitchesAndPositionals) {
   EXPECT_NO_THROW(a.finish());
 }
 
+TEST(Cli, RepeatedFlagsKeepEveryValueInOrder) {
+  pl::Args a = parse({"prog", "--traj", "a.txt", "--cell", "2", "--traj=b.txt:B", "--traj", "c.tum"});
+  EXPECT_EQ(a.get_all("--traj"), (std::vector<std::string>{"a.txt", "b.txt:B", "c.tum"}));
+  EXPECT_EQ(a.get("--traj"), "c.tum");  // a single get keeps the last one
+  EXPECT_TRUE(a.get_all("--none").empty());
+  EXPECT_DOUBLE_EQ(a.get_double("--cell", 1.0), 2.0);
+  EXPECT_NO_THROW(a.finish());
+  pl::Args s = parse({"prog", "--traj", "--json"}, {"--traj", "--json"});
+  EXPECT_THROW(s.get_all("--traj"), pl::Error);  // given as a switch, without a value
+}
+
 TEST(Cli, ErrorsNameTheFlag) {
   pl::Args a = parse({"prog", "--voxel", "abc", "--typo", "1"});
   try {

@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 
 #include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
@@ -244,4 +246,136 @@ TEST(Dataset, PlDatasetInfoReportsAndFailsClearly) {
   auto typo = pl::test::run(pl::test::tool("pl-dataset") + " poses " + (dir / "drive") + " --outfile x");
   EXPECT_EQ(typo.exit_code, 2);
   EXPECT_NE(typo.output.find("--out"), std::string::npos) << typo.output;
+}
+
+TEST(Dataset, GpsCsvBesideARawDriveReplacesTheOxtsFixes) {
+  TempDir dir;
+  write_raw_drive(dir.path(), 20);
+  const pl::Dataset oxts = pl::open_dataset(dir.path());
+  ASSERT_EQ(oxts.gps.size(), 20u);
+  write_file(dir / "gps.csv",
+             "# a consumer receiver\nt,lat,lon,alt,std_m,status\n0.0,49.0112200,8.4228900,113.0,1.5,1\n"
+             "1.0,49.0112500,8.4229500,113.5,1.5,1\n");
+  const pl::Dataset ds = pl::open_dataset(dir.path());
+  ASSERT_EQ(ds.gps.size(), 2u);  // the CSV's fixes only: none of the 20 OXTS fixes are kept
+  for (const auto& f : ds.gps) {
+    EXPECT_EQ(f.status, pl::kGpsSingle);
+    EXPECT_DOUBLE_EQ(f.std_m, 1.5);
+  }
+  EXPECT_DOUBLE_EQ(ds.gps[1].t, 1.0);
+  EXPECT_DOUBLE_EQ(ds.gps[1].position.lat_deg, 49.01125);
+  EXPECT_EQ(ds.sidecars, std::vector<std::string>{"gps.csv"});
+  // Everything else still comes from OXTS: poses, the world frame, the lever arm.
+  ASSERT_EQ(ds.ground_truth.size(), oxts.ground_truth.size());
+  for (std::size_t i = 0; i < ds.size(); ++i)
+    EXPECT_TRUE(ds.ground_truth.poses[i].isApprox(oxts.ground_truth.poses[i], 1e-12)) << i;
+  EXPECT_EQ(ds.projection.kind, pl::WorldProjection::Kind::KittiMercator);
+  EXPECT_NEAR((ds.to_world(ds.gps[0].position) - oxts.to_world(ds.gps[0].position)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(ds.meta.vehicle.gps_lever_arm.x(), -0.8086759, 1e-9);
+}
+
+namespace {
+
+// Per fix of `degraded`, its offset east/north/up from the fix of `source` at the same time.
+std::vector<Eigen::Vector3d> gps_offsets(const pl::Dataset& source, const pl::Dataset& degraded) {
+  std::vector<Eigen::Vector3d> out;
+  for (const auto& f : degraded.gps) {
+    auto it = std::find_if(source.gps.begin(), source.gps.end(), [&](const pl::GpsFix& g) { return std::fabs(g.t - f.t) < 1e-6; });
+    EXPECT_NE(it, source.gps.end()) << "no source fix at t = " << f.t;
+    if (it != source.gps.end()) out.push_back(pl::EnuFrame(it->position).to_enu(f.position));
+  }
+  return out;
+}
+
+double rms_of(const std::vector<Eigen::Vector3d>& v, int axis) {
+  double s = 0;
+  for (const auto& d : v) s += d[axis] * d[axis];
+  return std::sqrt(s / static_cast<double>(v.size()));
+}
+
+}  // namespace
+
+TEST(Dataset, DegradeGpsWritesTheSameDriveWithAConsumerReceiver) {
+  TempDir dir;
+  write_raw_drive(dir / "drive", 301);  // 30 s of OXTS at 10 Hz
+  const std::string tool = pl::test::tool("pl-dataset");
+  auto r = pl::test::run(tool + " degrade-gps " + (dir / "drive") + " --out " + (dir / "consumer") +
+                         " --rate 5 --sigma 2 --seed 7");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("151 fixes at 5 Hz"), std::string::npos) << r.output;
+
+  const pl::Dataset source = pl::open_dataset(dir / "drive");
+  const pl::Dataset ds = pl::open_dataset(dir / "consumer");
+  EXPECT_EQ(ds.layout, pl::DatasetLayout::KittiRaw);
+  ASSERT_EQ(ds.size(), source.size());
+  // The scans and OXTS are reached through symlinks, not copies.
+  EXPECT_TRUE(std::filesystem::is_symlink(dir / "consumer/velodyne_points"));
+  EXPECT_TRUE(std::filesystem::is_symlink(dir / "consumer/oxts"));
+  EXPECT_FALSE(std::filesystem::is_symlink(dir / "consumer/gps.csv"));
+  // Ground truth and times unchanged.
+  ASSERT_EQ(ds.ground_truth.size(), source.ground_truth.size());
+  for (std::size_t i = 0; i < ds.size(); ++i) {
+    EXPECT_DOUBLE_EQ(ds.times[i], source.times[i]);
+    EXPECT_TRUE(ds.ground_truth.poses[i].isApprox(source.ground_truth.poses[i], 1e-12)) << i;
+  }
+  // rate x duration + 1 fixes, 0.2 s apart, single, std 2 m.
+  ASSERT_EQ(ds.gps.size(), 151u);
+  for (std::size_t i = 1; i < ds.gps.size(); ++i) EXPECT_NEAR(ds.gps[i].t - ds.gps[i - 1].t, 0.2, 1e-6);
+  for (const auto& f : ds.gps) {
+    EXPECT_EQ(f.status, pl::kGpsSingle);
+    EXPECT_DOUBLE_EQ(f.std_m, 2.0);
+  }
+  // Zero-mean noise of sigma 2 m east and north, 3 m up (151 draws each: the std is within ~15 %).
+  const auto d = gps_offsets(source, ds);
+  ASSERT_EQ(d.size(), 151u);
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& v : d) mean += v / static_cast<double>(d.size());
+  EXPECT_NEAR(mean.x(), 0.0, 0.5);
+  EXPECT_NEAR(mean.y(), 0.0, 0.5);
+  EXPECT_NEAR(mean.z(), 0.0, 0.75);
+  EXPECT_NEAR(rms_of(d, 0), 2.0, 0.3);
+  EXPECT_NEAR(rms_of(d, 1), 2.0, 0.3);
+  EXPECT_NEAR(rms_of(d, 2), 3.0, 0.45);
+
+  // Deterministic: the same seed writes the same file (the output folder is replaced); another seed
+  // another one; the default rate (1 Hz) gives one fix a second.
+  const std::string first = pl::test::read_file(dir / "consumer/gps.csv");
+  r = pl::test::run(tool + " degrade-gps " + (dir / "drive") + " --out " + (dir / "consumer") + " --rate 5 --sigma 2 --seed 7");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(pl::test::read_file(dir / "consumer/gps.csv"), first);
+  r = pl::test::run(tool + " degrade-gps " + (dir / "drive") + " --out " + (dir / "other") + " --rate 5 --sigma 2 --seed 8");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(pl::test::read_file(dir / "other/gps.csv"), first);
+  r = pl::test::run(tool + " degrade-gps " + (dir / "drive") + " --out " + (dir / "slow"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const pl::Dataset slow = pl::open_dataset(dir / "slow");
+  EXPECT_EQ(slow.gps.size(), 31u);
+  EXPECT_DOUBLE_EQ(slow.gps[0].std_m, 1.5);
+  auto info = pl::test::run(tool + " info " + (dir / "slow"));
+  EXPECT_EQ(info.exit_code, 0) << info.output;
+  EXPECT_NE(info.output.find("31 fixes, median std 1.500 m: single 100.0 %"), std::string::npos) << info.output;
+}
+
+TEST(Dataset, DegradeGpsRejectsBadInputClearly) {
+  TempDir dir;
+  write_raw_drive(dir / "drive", 12);
+  write_file(dir / "taken/notes.txt", "mine");
+  const std::string tool = pl::test::tool("pl-dataset") + " degrade-gps " + (dir / "drive");
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {" --out " + (dir / "c") + " --rate 0", "--rate takes"},
+      {" --out " + (dir / "c") + " --rate 20", "above the rate of the source GPS"},
+      {" --out " + (dir / "c") + " --sigma -1", "--sigma takes"},
+      {" --out " + (dir / "drive/inside"), "inside the source folder"},
+      {" --out " + (dir / "drive"), "the source folder itself"},
+      {" --out " + (dir / "taken"), "notes.txt"},
+      {"", "missing --out"},
+      {" --out " + (dir / "c") + " --sigmaa 2", "unknown option --sigmaa"},
+  };
+  for (const auto& [args, expected] : cases) {
+    auto r = pl::test::run(tool + args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(expected), std::string::npos) << args << "\n" << r.output;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "drive/inside"));
+  EXPECT_EQ(pl::test::read_file(dir / "taken/notes.txt"), "mine");
 }

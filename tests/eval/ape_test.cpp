@@ -135,6 +135,70 @@ TEST(EvalApe, AlignmentOfPlanarPointsIsARotationNotAReflection) {
   EXPECT_THROW(align_rigid(src, {}), pl::Error);
 }
 
+TEST(EvalApe, Sim3RemovesAScaledRotatedShiftedCopyThatSe3CannotRemove) {
+  // The estimate is the ground truth scaled by 1.03 about the origin, then rotated and moved.
+  const Trajectory gt = curvy_path(300);
+  const Pose motion = make_pose(12.0, -7.0, 0.5, 0.02, -0.01, 0.9);
+  Trajectory est = gt;
+  for (auto& p : est.poses) {
+    p.translation() *= 1.03;
+    p = motion * p;
+  }
+  ApeOptions options;
+  options.alignment = Alignment::Sim3;
+  const ApeResult sim3 = ape(est, gt, options);
+  EXPECT_EQ(sim3.alignment, Alignment::Sim3);
+  EXPECT_NEAR(sim3.alignment_scale, 1.0 / 1.03, 1e-12);  // the factor applied to the estimate
+  EXPECT_LT(sim3.error.max, 1e-9);
+  EXPECT_NEAR(sim3.alignment_transform.linear().determinant(), 1.0, 1e-12);
+  // Undoing the motion and the scale: T (s p) = motion^-1 p / 1.03 for every p.
+  const Eigen::Vector3d probe(3.0, -4.0, 5.0);
+  EXPECT_NEAR((sim3.alignment_transform * (sim3.alignment_scale * probe) - (motion.inverse() * probe) / 1.03).norm(), 0.0,
+              1e-9);
+
+  options.alignment = Alignment::Se3;
+  const ApeResult se3 = ape(est, gt, options);
+  EXPECT_DOUBLE_EQ(se3.alignment_scale, 1.0);
+  // 3 % of a path some 450 m long, minus what the best rotation and translation can hide.
+  EXPECT_GT(se3.error.rmse, 1.0);
+  EXPECT_GT(se3.error.max, 2.0);
+}
+
+TEST(EvalApe, SimilarityAlignmentRecoversScaleRotationTranslation) {
+  Positions src, dst;
+  const Pose motion = make_pose(-3, 8, 1, 0.3, -0.2, 2.5);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-20.0, 20.0);
+  for (int i = 0; i < 50; ++i) {
+    const Eigen::Vector3d p(u(rng), u(rng), 0.1 * u(rng));
+    src.push_back(p);
+    dst.push_back(motion * (0.5 * p));  // the source is twice the target's size
+  }
+  const Similarity s = align_similarity(src, dst);
+  EXPECT_NEAR(s.scale, 0.5, 1e-12);
+  EXPECT_TRUE(s.rigid.matrix().isApprox(motion.matrix(), 1e-9)) << s.rigid.matrix();
+  for (std::size_t i = 0; i < src.size(); ++i) EXPECT_NEAR((s(src[i]) - dst[i]).norm(), 0.0, 1e-9);
+  Eigen::Matrix4d expected = motion.matrix();
+  expected.topLeftCorner<3, 3>() *= 0.5;
+  EXPECT_TRUE(s.matrix().isApprox(expected, 1e-9));
+
+  // Coplanar points: still a rotation, not a reflection; the scale stays positive.
+  Positions flat_src, flat_dst;
+  for (int i = 0; i < 8; ++i) {
+    const Eigen::Vector3d p(std::cos(i * 0.7) * 5, std::sin(i * 1.3) * 3, 0);
+    flat_src.push_back(p);
+    flat_dst.push_back(motion * (2.0 * p));
+  }
+  const Similarity f = align_similarity(flat_src, flat_dst);
+  EXPECT_NEAR(f.rigid.linear().determinant(), 1.0, 1e-12);
+  EXPECT_NEAR(f.scale, 2.0, 1e-12);
+
+  EXPECT_THROW(align_similarity({}, {}), pl::Error);
+  EXPECT_THROW(align_similarity(src, {}), pl::Error);
+  const Positions same(5, Eigen::Vector3d(1e6, 2e6, 3.0));  // far away, but all one point
+  EXPECT_THROW(align_similarity(same, Positions(5, Eigen::Vector3d::Zero())), pl::Error);
+}
+
 TEST(EvalApe, LongitudinalLateralVerticalOnAStraightLine) {
   const Eigen::Vector3d forward(0.6, 0.8, 0.0);  // a known direction in the xy plane
   const Eigen::Vector3d left(-0.8, 0.6, 0.0);

@@ -21,10 +21,18 @@ const std::string kPython = PL_PYTHON3;
 const std::string kScript = std::string(PL_EVAL_TEST_DIR) + "/independent_ape.py";
 
 // A ~500-pose curvy ground truth and a noisy estimate (fixed seed): translation noise sigma 0.25 m
-// plus a slow drift, small rotation noise.
-void write_pair(const TempDir& dir, std::size_t est_poses = 500) {
+// plus a slow drift, small rotation noise; with `scale`, the estimate's positions are also scaled
+// about the origin, rotated and moved (as a monocular or badly calibrated odometry would be).
+void write_pair(const TempDir& dir, std::size_t est_poses = 500, double scale = 1.0) {
   const Trajectory gt = test::curvy_path(500, 1.7);
   Trajectory est = gt;
+  if (scale != 1.0) {
+    const Pose motion = make_pose(25.0, -40.0, 2.0, 0.01, -0.02, 0.7);
+    for (auto& p : est.poses) {
+      p.translation() *= scale;
+      p = motion * p;
+    }
+  }
   std::mt19937 rng(20240611);
   std::normal_distribution<double> noise(0.0, 0.25), angle(0.0, 0.01);
   for (std::size_t i = 0; i < est.size(); ++i) {
@@ -72,6 +80,10 @@ void compare_with_python(const TempDir& dir, const std::string& align) {
     EXPECT_TRUE(ours.at(key).contains("mean_abs")) << key;
     EXPECT_TRUE(ours.at(key).contains("rmse")) << key;
   }
+  EXPECT_EQ(ours.contains("scale"), align == "sim3");
+  if (align == "sim3") {
+    EXPECT_NEAR(ours.at("scale").get<double>(), theirs.at("scale").get<double>(), 1e-9);
+  }
 }
 
 TEST(EvalCli, ApeJsonMatchesIndependentPython) {
@@ -84,6 +96,36 @@ TEST(EvalCli, ApeSe3JsonMatchesIndependentPythonHorn) {
   TempDir dir;
   write_pair(dir);
   compare_with_python(dir, "se3");
+}
+
+TEST(EvalCli, ApeSim3JsonMatchesIndependentPythonHornWithScale) {
+  TempDir dir;
+  write_pair(dir, 500, 1.03);
+  compare_with_python(dir, "sim3");
+  const auto sim3 = parse_json(run({test::pl_eval_exe(), "ape", "--est", dir.file("est.txt"), "--gt",
+                                    dir.file("gt.txt"), "--align", "sim3", "--json"},
+                                   dir),
+                               "ape sim3");
+  const auto se3 = parse_json(run({test::pl_eval_exe(), "ape", "--est", dir.file("est.txt"), "--gt", dir.file("gt.txt"),
+                                   "--align", "se3", "--json"},
+                                  dir),
+                              "ape se3");
+  // The noise is sigma 0.25 m plus drift; the 3 % scale over a ~850 m path adds metres unless removed.
+  EXPECT_NEAR(sim3.at("scale").get<double>(), 1.0 / 1.03, 0.003);
+  EXPECT_LT(sim3.at("rmse").get<double>(), 0.6);
+  EXPECT_GT(se3.at("rmse").get<double>(), 3.0 * sim3.at("rmse").get<double>());
+  // The transform is the one applied: its rotation part has the scale as its determinant's cube root.
+  Eigen::Matrix3d m;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) m(r, c) = sim3.at("alignment_transform")[r][c].get<double>();
+  EXPECT_NEAR(std::cbrt(m.determinant()), sim3.at("scale").get<double>(), 1e-9);
+
+  const RunResult text = run({test::pl_eval_exe(), "ape", "--est", dir.file("est.txt"), "--gt", dir.file("gt.txt"),
+                              "--align", "sim3"},
+                             dir);
+  EXPECT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_NE(text.out.find("alignment     sim3"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("scale         0.97"), std::string::npos) << text.out;
 }
 
 TEST(EvalCli, ApeShorterEstimateMatchesIndependentPython) {
@@ -187,7 +229,8 @@ TEST(EvalCli, BadInputsExitWithTwo) {
        "unknown option --bogus"},
       {{exe, "ape", "--est", dir.file("est.txt"), "--gt"}, "--gt needs a value"},
       {{exe, "ape", "--est", dir.file("est.tum"), "--gt", dir.file("gt.txt")}, "convert"},
-      {{exe, "ape", "--est", dir.file("gt.txt"), "--gt", dir.file("est.txt"), "--align", "sim3"}, "--align takes"},
+      {{exe, "ape", "--est", dir.file("gt.txt"), "--gt", dir.file("est.txt"), "--align", "affine"},
+       "--align takes none, se3 or sim3"},
       {{exe, "ape", "--gt", dir.file("gt.txt")}, "missing --est"},
       {{exe, "ape", "--est", dir.file("nope.txt"), "--gt", dir.file("gt.txt")}, "nope.txt: cannot open"},
       {{exe, "kitti", "--est", dir.file("est.txt"), "--gt", dir.file("gt.txt"), "extra"}, "unexpected argument"},

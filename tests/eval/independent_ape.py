@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Independent check of `pl-eval ape` on two KITTI pose files, in plain Python 3 (stdlib only).
 
-usage: independent_ape.py EST GT [--align none|se3]
+usage: independent_ape.py EST GT [--align none|se3|sim3]
 
 Reads the two files line by line (blank lines and lines starting with '#' are skipped, as in the
 C++ reader), pairs line i of EST with line i of GT, takes the translations (fields 4, 8, 12 of the
@@ -11,6 +11,10 @@ gt_poses, coverage, mean, median, rmse, std (population), max.
 --align se3 aligns EST onto GT with Horn's closed-form quaternion method (the eigenvector of the
 largest eigenvalue of a 4x4 symmetric matrix, found here by Jacobi rotations), a different route to
 the same least-squares rotation as the SVD that pl-eval uses.
+
+--align sim3 adds Horn's scale: with that rotation R, s = sum(gt' . R est') / sum |est'|^2 over the
+centred points (the asymmetric least-squares scale, section 2.D of Horn's paper), and prints it as
+"scale".
 """
 import json
 import math
@@ -64,8 +68,9 @@ def jacobi_eigen(a, sweeps=100):
     return [a[i][i] for i in range(n)], v
 
 
-def horn_align(src, dst):
-    """Rotation matrix and translation minimising sum |R src + t - dst|^2 (Horn 1987)."""
+def horn_align(src, dst, with_scale=False):
+    """Rotation matrix, translation and scale minimising sum |s R src + t - dst|^2 (Horn 1987);
+    s = 1 unless with_scale."""
     n = float(len(src))
     ms = [sum(p[k] for p in src) / n for k in range(3)]
     md = [sum(p[k] for p in dst) / n for k in range(3)]
@@ -93,8 +98,19 @@ def horn_align(src, dst):
         [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
         [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
     ]
-    t = [md[i] - sum(r[i][k] * ms[k] for k in range(3)) for i in range(3)]
-    return r, t
+    scale = 1.0
+    if with_scale:
+        num = 0.0
+        den = 0.0
+        for p, q in zip(src, dst):
+            a = [p[k] - ms[k] for k in range(3)]
+            b = [q[k] - md[k] for k in range(3)]
+            ra = [sum(r[i][k] * a[k] for k in range(3)) for i in range(3)]
+            num += sum(b[i] * ra[i] for i in range(3))
+            den += sum(x * x for x in a)
+        scale = num / den
+    t = [md[i] - scale * sum(r[i][k] * ms[k] for k in range(3)) for i in range(3)]
+    return r, t, scale
 
 
 def main(argv):
@@ -104,16 +120,17 @@ def main(argv):
         i = args.index('--align')
         align = args[i + 1]
         del args[i:i + 2]
-    if len(args) != 2 or align not in ('none', 'se3'):
+    if len(args) != 2 or align not in ('none', 'se3', 'sim3'):
         sys.exit(__doc__)
     est = read_kitti_translations(args[0])
     gt = read_kitti_translations(args[1])
     if len(est) > len(gt):
         sys.exit('estimate longer than ground truth')
     gt_matched = gt[:len(est)]
-    if align == 'se3':
-        r, t = horn_align(est, gt_matched)
-        est = [tuple(sum(r[i][k] * p[k] for k in range(3)) + t[i] for i in range(3)) for p in est]
+    scale = None
+    if align in ('se3', 'sim3'):
+        r, t, scale = horn_align(est, gt_matched, align == 'sim3')
+        est = [tuple(scale * sum(r[i][k] * p[k] for k in range(3)) + t[i] for i in range(3)) for p in est]
     errors = [math.sqrt(sum((p[k] - q[k]) ** 2 for k in range(3))) for p, q in zip(est, gt_matched)]
     n = len(errors)
     mean = math.fsum(errors) / n
@@ -121,7 +138,7 @@ def main(argv):
     median = ordered[n // 2] if n % 2 else 0.5 * (ordered[n // 2 - 1] + ordered[n // 2])
     rmse = math.sqrt(math.fsum(e * e for e in errors) / n)
     std = math.sqrt(math.fsum((e - mean) ** 2 for e in errors) / n)
-    print(json.dumps({
+    result = {
         'alignment': align,
         'matched': n,
         'gt_poses': len(gt),
@@ -131,7 +148,10 @@ def main(argv):
         'rmse': rmse,
         'std': std,
         'max': ordered[-1],
-    }, indent=2))
+    }
+    if align == 'sim3':
+        result['scale'] = scale
+    print(json.dumps(result, indent=2))
 
 
 if __name__ == '__main__':

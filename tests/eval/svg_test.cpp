@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <regex>
@@ -115,6 +116,52 @@ TEST(EvalSvg, BarsAndSave) {
   EXPECT_NE(svg.find("fill=\"#123456\""), std::string::npos);
   EXPECT_THROW(plot.save(dir.file("no/such/folder/h.svg")), pl::Error);
   EXPECT_THROW(plot.add_bars("bad", {0, 1}, {1, 2}, "#000"), pl::Error);
+}
+
+// The rectangles "Mx0 y0Hx1Vy1Hx0z" of the cell path filled with `color`.
+std::vector<std::array<double, 4>> cell_runs(const std::string& svg, const std::string& color) {
+  std::vector<std::array<double, 4>> out;
+  const std::size_t at = svg.find("<path fill=\"" + color + "\" d=\"");
+  if (at == std::string::npos) return out;
+  const std::size_t a = svg.find("d=\"", at) + 3, b = svg.find('"', a);
+  const std::regex run("M([-0-9.]+) ([-0-9.]+)H([-0-9.]+)V([-0-9.]+)H([-0-9.]+)z");
+  const std::string d = svg.substr(a, b - a);
+  for (std::sregex_iterator it(d.begin(), d.end(), run), end; it != end; ++it) {
+    out.push_back({std::stod((*it)[1]), std::stod((*it)[2]), std::stod((*it)[3]), std::stod((*it)[4])});
+    EXPECT_EQ((*it)[1], (*it)[5]);  // the rectangle closes where it started
+  }
+  return out;
+}
+
+TEST(EvalSvg, CellsMergeIntoRunsPerShade) {
+  SvgPlot plot("cells", "x", "y");
+  plot.set_equal_aspect(true);
+  // Row 0: three dark cells side by side and one more dark cell apart; row 1: one light cell.
+  plot.add_cells("map", 2.0, {0, 2, 4, 10, 0}, {0, 0, 0, 0, 2}, {0.95, 0.99, 1.5, 0.97, 0.0});
+  const std::string svg = plot.to_string();
+  expect_svg_document(svg, "cells");
+  const std::string dark = SvgPlot::cell_color(1.0), light = SvgPlot::cell_color(0.0);
+  EXPECT_EQ(dark, "#2a2a2a");
+  EXPECT_EQ(light, "#e4e4e4");
+  EXPECT_EQ(SvgPlot::cell_color(std::nan("")), light);
+  EXPECT_NE(SvgPlot::cell_color(0.5), dark);
+  EXPECT_EQ(count_of(svg, "<path fill="), 2u);  // one path per shade
+  const auto d = cell_runs(svg, dark), l = cell_runs(svg, light);
+  ASSERT_EQ(d.size(), 2u);  // the three neighbours are one run
+  ASSERT_EQ(l.size(), 1u);
+  const double cell_px = l[0][2] - l[0][0];
+  EXPECT_GT(cell_px, 10.0);
+  EXPECT_NEAR(d[0][2] - d[0][0], 3.0 * cell_px, 0.2);  // the run spans three cells
+  EXPECT_NEAR(d[0][3] - d[0][1], cell_px, 0.2);        // square cells (equal aspect)
+  EXPECT_NEAR(d[1][0] - d[0][0], 5.0 * cell_px, 0.2);  // the lone cell starts at x = 10
+  EXPECT_NEAR(l[0][3], d[0][1], 0.05);                 // row 1 sits on top of row 0 without a gap
+  EXPECT_GT(d[0][1], l[0][1]);                         // y grows upwards on the page
+  // The far edge of the last cell (x = 12) is inside the plot area (right margin 24 px).
+  EXPECT_LE(d[1][2], 800.0 - 24.0);
+  EXPECT_NE(svg.find(">map</text>"), std::string::npos);  // the legend entry
+
+  EXPECT_THROW(plot.add_cells("bad", 0.0, {0}, {0}, {0}), pl::Error);
+  EXPECT_THROW(plot.add_cells("bad", 1.0, {0, 1}, {0}, {0, 1}), pl::Error);
 }
 
 TEST(EvalSvg, ApeFigures) {

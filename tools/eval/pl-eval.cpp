@@ -1,5 +1,6 @@
-// pl-eval: accuracy (APE, KITTI relative errors) and timing evaluation. The commands live in the
-// pl_eval library (pl/eval/command.hpp); this is only the process entry point.
+// pl-eval: trajectory accuracy (APE, KITTI relative errors), map accuracy against a reference,
+// timing, and map top views. The commands live in the pl_eval library (pl/eval/command.hpp); this
+// is only the process entry point.
 #include "pl/common/cli.hpp"
 #include "pl/eval/command.hpp"
 

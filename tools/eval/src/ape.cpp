@@ -10,10 +10,17 @@ namespace pl::eval {
 std::optional<Alignment> parse_alignment(const std::string& name) {
   if (name == "none") return Alignment::None;
   if (name == "se3") return Alignment::Se3;
+  if (name == "sim3") return Alignment::Sim3;
   return std::nullopt;
 }
 
-const char* alignment_name(Alignment alignment) { return alignment == Alignment::Se3 ? "se3" : "none"; }
+const char* alignment_name(Alignment alignment) {
+  switch (alignment) {
+    case Alignment::Se3: return "se3";
+    case Alignment::Sim3: return "sim3";
+    default: return "none";
+  }
+}
 
 namespace {
 
@@ -57,8 +64,14 @@ ApeResult compute_ape(const Trajectory& est, const Trajectory& gt, const PosePai
   }
   if (options.alignment == Alignment::Se3) {
     r.alignment_transform = align_rigid(src, dst);
-    for (auto& p : r.est_positions) p = r.alignment_transform * p;
-    for (auto& p : src) p = r.alignment_transform * p;
+  } else if (options.alignment == Alignment::Sim3) {
+    const Similarity s = align_similarity(src, dst);
+    r.alignment_transform = s.rigid;
+    r.alignment_scale = s.scale;
+  }
+  if (options.alignment != Alignment::None) {
+    for (auto& p : r.est_positions) p = r.alignment_transform * (r.alignment_scale * p);
+    for (auto& p : src) p = r.alignment_transform * (r.alignment_scale * p);
   }
 
   const std::vector<double> distance = path_distances(r.gt_positions);

@@ -1,5 +1,6 @@
 #include "pl/eval/report.hpp"
 
+#include <cmath>
 #include <cstdarg>
 #include <cstdio>
 
@@ -45,10 +46,12 @@ nlohmann::ordered_json ape_json(const ApeResult& r) {
   j["vertical_axis_source"] = r.vertical_axis_auto ? "auto" : "option";
   if (r.alignment != Alignment::None) {
     nlohmann::ordered_json rows = nlohmann::ordered_json::array();
-    const Eigen::Matrix4d m = r.alignment_transform.matrix();
+    Eigen::Matrix4d m = r.alignment_transform.matrix();
+    m.topLeftCorner<3, 3>() *= r.alignment_scale;  // the matrix applied to the estimate
     for (int row = 0; row < 3; ++row) rows.push_back({m(row, 0), m(row, 1), m(row, 2), m(row, 3)});
     j["alignment_transform"] = rows;
   }
+  if (r.alignment == Alignment::Sim3) j["scale"] = r.alignment_scale;
   return j;
 }
 
@@ -58,7 +61,12 @@ std::string ape_text(const ApeResult& r, const std::string& est_path, const std:
   o += "  estimate      " + est_path + "\n";
   o += "  ground truth  " + gt_path + "\n";
   o += line("  alignment     %s%s", alignment_name(r.alignment),
-            r.alignment == Alignment::None ? " (raw poses)" : " (rigid: rotation + translation, no scale)");
+            r.alignment == Alignment::None  ? " (raw poses)"
+            : r.alignment == Alignment::Se3 ? " (rigid: rotation + translation, no scale)"
+                                            : " (similarity: rotation + translation + uniform scale)");
+  if (r.alignment == Alignment::Sim3)
+    o += line("  scale         %.6f (applied to the estimate: it was %.4f times the ground truth's size)",
+              r.alignment_scale, r.alignment_scale > 0.0 ? 1.0 / r.alignment_scale : 0.0);
   o += line("  matched       %zu of %zu ground-truth poses (coverage %.1f %%)", r.matched, r.gt_poses,
             r.coverage * 100.0);
   o += line("  vertical axis %c (%s)", axis_name(r.vertical_axis),
@@ -158,6 +166,81 @@ std::string timing_text(const TimingColumn& c, const TimingStats& s, const Histo
     o += "  " + hist.substr(start, end - start) + "\n";
     start = end == std::string::npos ? hist.size() : end + 1;
   }
+  return o;
+}
+
+namespace {
+
+double share_at(const MapAccuracy& r, double distance) {
+  for (const auto& s : r.shares)
+    if (std::fabs(s.distance - distance) < 1e-12) return s.share;
+  return 0.0;
+}
+
+}  // namespace
+
+nlohmann::ordered_json map_json(const MapAccuracy& r, const std::string& map_path, const std::string& reference_path,
+                                const std::optional<GeoPoint>& origin) {
+  nlohmann::ordered_json j;
+  j["map"] = map_path;
+  j["reference"] = reference_path;
+  j["map_points"] = r.map_points;
+  j["reference_points"] = r.reference_points;
+  if (origin)
+    j["origin"] = {{"lat", origin->lat_deg}, {"lon", origin->lon_deg}, {"alt", origin->alt_m}};
+  else
+    j["origin"] = nullptr;
+  j["within_m"] = r.within;
+  j["share_within"] = share_at(r, r.within);
+  nlohmann::ordered_json shares = nlohmann::ordered_json::array();
+  for (const auto& s : r.shares) shares.push_back({{"distance_m", s.distance}, {"points", s.points}, {"share", s.share}});
+  j["shares"] = shares;
+  j["mean"] = r.distance.mean;
+  j["median"] = r.distance.median;
+  j["rmse"] = r.distance.rmse;
+  j["p90"] = r.p90;
+  j["p95"] = r.p95;
+  j["p99"] = r.p99;
+  j["max"] = r.distance.max;
+  j["metric"] = r.surface ? "surface" : "point";
+  j["surface_points"] = r.surface_points;
+  j["reference_spacing_m"] = r.reference_spacing;
+  j["coverage_radius_m"] = r.coverage_radius;
+  j["reference_coverage"] = r.reference_coverage;
+  return j;
+}
+
+std::string map_text(const MapAccuracy& r, const std::string& map_path, const std::string& reference_path,
+                     const std::optional<GeoPoint>& origin) {
+  std::string o;
+  o += r.surface ? "Map accuracy: distance from each map point to the reference surface (metres)\n"
+                 : "Map accuracy: distance from each map point to the nearest reference point (metres)\n";
+  o += line("  map           %s (%zu points)", map_path.c_str(), r.map_points);
+  o += line("  reference     %s (%zu points, spacing %.3f m)", reference_path.c_str(), r.reference_points,
+            r.reference_spacing);
+  if (origin)
+    o += line("  origin        lat %.9f, lon %.9f, alt %.3f m", origin->lat_deg, origin->lon_deg, origin->alt_m);
+  else
+    o += "  origin        not recorded (the clouds are taken to share one world frame)\n";
+  o += "\n";
+  o += line("  within %.3f m  %6.2f %% of the map points", r.within, 100.0 * share_at(r, r.within));
+  o += "\n";
+  o += line("  %-12s %10s %10s", "within [m]", "points", "share %");
+  for (const auto& s : r.shares) o += line("  %-12.3f %10zu %10.2f", s.distance, s.points, 100.0 * s.share);
+  o += "\n";
+  o += line("  %-14s %9s %9s %9s %9s %9s %9s", "", "mean", "median", "p90", "p95", "p99", "max");
+  o += line("  %-14s %9.4f %9.4f %9.4f %9.4f %9.4f %9.4f", "distance [m]", r.distance.mean, r.distance.median, r.p90,
+            r.p95, r.p99, r.distance.max);
+  o += "\n";
+  o += line("  reference coverage  %.2f %% of the reference points have a map point within %.2f m", 100.0 * r.reference_coverage,
+            r.coverage_radius);
+  if (r.surface)
+    o += line("  metric              %zu of the map points (%.1f %%) measured to a plane fitted to the reference, the rest "
+              "to the nearest reference point", r.surface_points, 100.0 * static_cast<double>(r.surface_points) / r.map_points);
+  if (!r.surface && 0.5 * std::sqrt(2.0) * r.reference_spacing > r.within)
+    o += line("  note: the reference's points are %.3f m apart, so even a perfect map point can be up to about "
+              "%.3f m from the nearest one; a denser reference (pl-sim --map-spacing) resolves --within %.3f m",
+              r.reference_spacing, 0.5 * r.reference_spacing * std::sqrt(2.0), r.within);
   return o;
 }
 

@@ -168,7 +168,7 @@ SimReport simulate(const SimOptions& o) {
   if (!o.map_out.empty()) {
     std::vector<float> intensity;
     Points3d cloud = sample_world(world, o.map_spacing, intensity);
-    write_pcd(o.map_out, cloud, intensity);
+    write_pcd(o.map_out, cloud, intensity, o.origin);  // the frame of the drive: its geodetic origin
     r.map_points = cloud.size();
   }
   r.frames = n;

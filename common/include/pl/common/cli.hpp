@@ -16,6 +16,8 @@ class Args {
 
   bool has(const std::string& flag) const;                          // marks the flag as known
   std::optional<std::string> get(const std::string& flag) const;    // marks the flag as known
+  // Every value of a flag that may be repeated (--traj A --traj B), in order; marks it as known.
+  std::vector<std::string> get_all(const std::string& flag) const;
   std::string get_or(const std::string& flag, const std::string& fallback) const;
   std::string require(const std::string& flag, const std::string& what) const;
   double get_double(const std::string& flag, double fallback) const;

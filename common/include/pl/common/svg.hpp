@@ -1,5 +1,6 @@
 // A small SVG plot writer: one x-y panel with axes, tick labels, axis titles, a title and a legend;
-// series are polylines, point markers, horizontal/vertical reference lines and histogram bars.
+// series are polylines, point markers, horizontal/vertical reference lines, histogram bars, filled
+// polygons and shaded grid cells (a raster, e.g. a map's occupied cells in a top view).
 #pragma once
 
 #include <string>
@@ -38,19 +39,30 @@ class SvgPlot {
   void add_polygons(const std::string& label, const std::vector<double>& x, const std::vector<double>& y,
                     const std::string& color, double opacity = 0.85);
 
+  // Square cells of side `size` with lower-left corners (x[i], y[i]) on one grid (corners differ by
+  // whole multiples of size), shaded grey by shade[i] in [0, 1] (0 light, 1 dark; clamped) in
+  // kCellShades steps. Drawn compactly: one path per shade, a rectangle per run of horizontally
+  // adjacent cells of that shade; size must be > 0.
+  void add_cells(const std::string& label, double size, const std::vector<double>& x, const std::vector<double>& y,
+                 const std::vector<double>& shade);
+  static constexpr int kCellShades = 16;
+  // The grey a cell of this shade is drawn in ("#rrggbb"), e.g. for a colour key.
+  static std::string cell_color(double shade);
+
   std::string to_string() const;
   // Throws pl::Error when the file cannot be written.
   void save(const std::string& path) const;
 
  public:
-  enum class Kind { Line, Points, HLine, VLine, Bars, Polygons };
+  enum class Kind { Line, Points, HLine, VLine, Bars, Polygons, Cells };
   struct Series {
     Kind kind;
     std::string label;
-    std::vector<double> x, y;  // bars: x = edges, y = heights
+    std::vector<double> x, y;  // bars: x = edges, y = heights; cells: lower-left corners
     std::string color;
-    double size;
+    double size;               // stroke width, marker radius, opacity, or the cells' side
     bool dashed;
+    std::vector<double> value;  // cells: the shade of each
   };
 
  private:

@@ -1,14 +1,17 @@
 // The back end of map building: a pose graph over keyframes of a LiDAR odometry trajectory. Edges:
 // the odometry chain (the relative pose between consecutive keyframes, weighted by the front end's
-// registration information) and GPS positions of the antenna (pose * lever arm) with a robust loss,
-// so that multipath fixes are down-weighted. Levenberg-Marquardt in Ceres; every scan is then placed
-// at its odometry offset from the nearest preceding keyframe.
+// registration information), GPS positions of the antenna (pose * lever arm) with a robust loss, so
+// that multipath fixes are down-weighted, and loop closures (relative poses between keyframes far
+// apart along the drive, measured by ICP; see loop_closure.hpp), also robust. Levenberg-Marquardt in
+// Ceres, re-solved as loops are added; every scan is then placed at its odometry offset from the
+// nearest preceding keyframe.
 #pragma once
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -44,8 +47,20 @@ struct PoseGraphConfig {
   // residual (in standard deviations) above which a fix counts as an outlier in the report.
   double gps_kernel_sigmas = 3.0;
   double gps_outlier_sigmas = 6.0;
+  // Tilt: GPS positions pin the trajectory's roll and pitch only weakly (not at all along a straight
+  // road, where rolling the whole drive about it only moves the antenna a little), so the first
+  // keyframe keeps the odometry's gravity direction: a prior of this many degrees.
+  double tilt_prior_deg = 0.5;
   int max_iterations = 100;
+  // Loop edges: a robust loss (Cauchy) at this many standard deviations; 0: none. None by default:
+  // loops are verified before they enter, and the drift they correct is systematic, many times what
+  // the odometry's random-walk covariance allows, so a robust loss would weigh true loops away.
+  double loop_kernel_sigmas = 0.0;
 };
+
+// Whether `pose` starts a new keyframe after the keyframe at `last` (moved keyframe_m or turned
+// keyframe_deg). The rule is causal: callers may apply it while the odometry runs.
+bool is_new_keyframe(const Pose& last, const Pose& pose, const PoseGraphConfig& cfg);
 
 // A GPS fix tied to the drive: taken between scan `scan` and `scan + 1`, `fraction` of the way
 // (0 = at the scan's time). The antenna position is in the world frame of the poses.
@@ -63,16 +78,50 @@ struct PoseGraphReport {
   std::size_t gps_edges = 0;     // used (status other than none)
   std::size_t gps_outliers = 0;  // normalized residual above gps_outlier_sigmas after the solve
   double gps_rms_before_m = 0.0, gps_rms_after_m = 0.0;  // antenna residuals, outliers excluded
-  int iterations = 0;
-  double solve_ms = 0.0;
-  std::string termination;  // Ceres' termination type, or "no gps" / "skipped"
+  std::size_t loop_edges = 0;
+  int solves = 0;
+  int iterations = 0;     // over all solves
+  double solve_ms = 0.0;  // over all solves
+  std::string termination;  // Ceres' termination type of the last solve, "skipped" (no poses) or "no gps or loops"
 };
 
-// Optimizes a trajectory (one odometry pose per scan, `information` one per scan or empty) with GPS
-// edges; `lever_arm` is the antenna in the sensor frame. Without GPS the first pose is held fixed
-// (and the chain comes back as it went in); with GPS the fixes set the absolute frame: the odometry
-// is first aligned to them (yaw and translation) when they spread enough. Returns one pose per scan.
-// Throws pl::Error on mismatched sizes or a GPS edge naming a scan out of range.
+// The graph, kept between solves so that loop edges can be added as they are found.
+class PoseGraph {
+ public:
+  // Keyframes from the odometry (one pose per scan, `information` one per scan or empty); GPS edges
+  // resolved onto them. Without GPS the first keyframe is held fixed; with GPS the fixes set the
+  // absolute frame: the odometry is first aligned to them (yaw and translation) when they spread
+  // enough. Throws pl::Error on mismatched sizes or a GPS edge naming a scan out of range.
+  PoseGraph(const PoseList& odometry_poses, const std::vector<Information6>& information, const std::vector<GpsEdge>& gps,
+            const Eigen::Vector3d& lever_arm, const PoseGraphConfig& cfg);
+  ~PoseGraph();
+  PoseGraph(const PoseGraph&) = delete;
+  PoseGraph& operator=(const PoseGraph&) = delete;
+
+  // Scan index of each keyframe (ascending; the first is scan 0).
+  const std::vector<std::size_t>& keyframes() const;
+  // Current estimate of keyframe k, and its pose from the odometry alone (same frame as the input).
+  Pose keyframe_pose(std::size_t k) const;
+  const Pose& odometry_pose(std::size_t k) const;
+  // A measured relative pose T_a^-1 T_b between keyframes a and b (e.g. ICP on a revisit), with its
+  // information (perturbation T_b * exp(d), d = (translation, rotation)). Returns the edge's id.
+  std::size_t add_loop(std::size_t a, std::size_t b, const Pose& relative, const Information6& information);
+  // Takes a loop edge out again (one found inconsistent with the rest of the graph).
+  void remove_loop(std::size_t id);
+  // Levenberg-Marquardt from the current estimate (at most max_iterations; 0: the config's).
+  void optimize(int max_iterations = 0);
+  // One pose per scan: each at its odometry offset from its keyframe.
+  PoseList poses() const;
+  // Keyframes, edges, GPS residuals before (the odometry) and now, solve statistics.
+  PoseGraphReport report() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// The graph built and solved once (no loops): one pose per scan. `lever_arm` is the antenna in the
+// sensor frame. Without GPS the chain comes back as it went in.
 PoseList optimize_trajectory(const PoseList& odometry_poses, const std::vector<Information6>& information,
                              const std::vector<GpsEdge>& gps, const Eigen::Vector3d& lever_arm, const PoseGraphConfig& cfg,
                              PoseGraphReport* report = nullptr);

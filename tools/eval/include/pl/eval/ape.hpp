@@ -1,5 +1,6 @@
 // Absolute position error (APE): the translation error of each estimated pose against the
-// ground-truth pose it pairs with, optionally after a rigid alignment of the estimate.
+// ground-truth pose it pairs with, optionally after a rigid (se3) or similarity (sim3) alignment
+// of the estimate.
 #pragma once
 
 #include <cstddef>
@@ -14,7 +15,7 @@
 
 namespace pl::eval {
 
-enum class Alignment { None, Se3 };
+enum class Alignment { None, Se3, Sim3 };
 std::optional<Alignment> parse_alignment(const std::string& name);
 const char* alignment_name(Alignment alignment);
 
@@ -30,7 +31,10 @@ struct ComponentError {
 
 struct ApeResult {
   Alignment alignment = Alignment::None;
-  Pose alignment_transform = Pose::Identity();  // applied to the estimate (identity for none)
+  // The estimate's positions p become alignment_transform * (alignment_scale * p): identity and 1
+  // for none, scale 1 for se3. For sim3 a scale below 1 means the estimate was too large.
+  Pose alignment_transform = Pose::Identity();
+  double alignment_scale = 1.0;
   int vertical_axis = 2;
   bool vertical_axis_auto = true;
   std::size_t matched = 0;

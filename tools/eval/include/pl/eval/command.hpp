@@ -1,4 +1,4 @@
-// The pl-eval command line: `pl-eval ape|kitti|timing ...`. Kept in the library so that tests can
+// The pl-eval command line: `pl-eval ape|kitti|timing|map|topview ...`. Kept in the library so that tests can
 // run it in-process; tools/eval/pl-eval.cpp only wraps it in pl::run_cli.
 #pragma once
 

@@ -1,0 +1,247 @@
+// Loop proposals by position and by place, verified by ICP against a local map, added to the graph.
+#include "pl/maps/loop_closure.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+
+#include "pl/client/icp.hpp"
+#include "pl/client/localizer.hpp"
+#include "pl/client/roi_map.hpp"
+#include "pl/common/error.hpp"
+#include "pl/common/voxel.hpp"
+#include "pl/maps/map_builder.hpp"
+
+namespace pl::maps {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+constexpr double kTileSize = 20.0;
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+// The keyframes within `submap_m` of path of `center`, merged in its frame at the current estimate,
+// with normals, as tiles.
+std::vector<client::MapTile> local_map(const PoseList& estimate,
+                                       const std::vector<double>& path, const std::vector<std::vector<Eigen::Vector3f>>& clouds,
+                                       std::size_t center, const LoopClosureConfig& cfg) {
+  VoxelAccumulator acc(cfg.target_voxel_m);
+  const Pose to_center = estimate[center].inverse();
+  for (std::size_t m = center; m-- > 0 && path[center] - path[m] <= cfg.submap_m;) {
+    const Pose rel = to_center * estimate[m];
+    for (const Eigen::Vector3f& p : clouds[m]) acc.add(rel * p.cast<double>(), 0.0f);
+  }
+  for (std::size_t m = center; m < clouds.size() && path[m] - path[center] <= cfg.submap_m; ++m) {
+    const Pose rel = to_center * estimate[m];
+    for (const Eigen::Vector3f& p : clouds[m]) acc.add(rel * p.cast<double>(), 0.0f);
+  }
+  std::vector<float> intensity;
+  const Points3d points = acc.centroids(intensity);
+  const std::vector<Eigen::Vector3f> normals = estimate_normals(points, cfg.normal_radius_m);
+  std::vector<client::MapTile> tiles;
+  for (auto& [key, cloud] : cut_into_tiles(points, normals, {}, TileGrid(kTileSize))) {
+    client::MapTile t;
+    t.key = key;
+    t.hash = std::to_string(key.tx) + "," + std::to_string(key.ty);
+    t.cloud = std::make_shared<const TileCloud>(std::move(cloud));
+    tiles.push_back(std::move(t));
+  }
+  return tiles;
+}
+
+std::vector<Eigen::Vector3f> thin(const std::vector<Eigen::Vector3f>& cloud, double voxel) {
+  Points3d pts;
+  pts.reserve(cloud.size());
+  for (const Eigen::Vector3f& p : cloud) pts.push_back(p.cast<double>());
+  std::vector<Eigen::Vector3f> out;
+  for (const Eigen::Vector3d& p : voxel_downsample(pts, voxel)) out.push_back(p.cast<float>());
+  return out;
+}
+
+Information6 edge_information(const client::IcpResult& r, const LoopClosureConfig& cfg) {
+  Information6 cov = r.covariance;
+  cov = 0.5 * (cov + cov.transpose());
+  const double st = cfg.sigma_m, sr = cfg.sigma_deg * kDeg;
+  cov.diagonal() += (Eigen::Matrix<double, 6, 1>() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr).finished();
+  Information6 info = cov.ldlt().solve(Information6::Identity());
+  return 0.5 * (info + info.transpose());
+}
+
+}  // namespace
+
+LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Vector3f>>& clouds, const LoopClosureConfig& cfg,
+                       const std::function<void(std::size_t, std::size_t)>& progress) {
+  const std::size_t n = graph.keyframes().size();
+  if (clouds.size() != n)
+    throw Error("loop closure: " + std::to_string(clouds.size()) + " keyframe clouds for " + std::to_string(n) + " keyframes");
+  LoopReport rep;
+  if (n == 0) return rep;
+
+  // Path length along the odometry to each keyframe, the descriptors, and the estimate.
+  std::vector<double> path(n, 0.0);
+  for (std::size_t k = 1; k < n; ++k)
+    path[k] = path[k - 1] + (graph.odometry_pose(k).translation() - graph.odometry_pose(k - 1).translation()).norm();
+  std::vector<PlaceDescriptor> descriptors(n);
+  for (std::size_t k = 0; k < n; ++k) descriptors[k] = make_place_descriptor(clouds[k], cfg.descriptor);
+  PoseList estimate(n);
+  auto refresh = [&] {
+    for (std::size_t k = 0; k < n; ++k) estimate[k] = graph.keyframe_pose(k);
+  };
+  refresh();
+  const PoseList before = estimate;
+
+  client::IcpConfig icp;
+  icp.max_pair_m = 0.5;
+  icp.kernel_m = 0.2;
+  icp.kernel_start_m = 1.0;
+  icp.max_iterations = 40;
+  client::RoiMapConfig roi_cfg;
+  roi_cfg.cell_m = 0.5;
+
+  struct Accepted {
+    std::size_t a, b;
+    Pose z;
+  };
+  std::vector<Accepted> accepted;
+  double next_query = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (progress) progress(i + 1, n);
+    if (path[i] < next_query || path[i] < cfg.min_separation_m) continue;
+    // Eligible matches: 0 .. last, at least min_separation_m of path behind.
+    const std::size_t last =
+        static_cast<std::size_t>(std::upper_bound(path.begin(), path.begin() + static_cast<long>(i), path[i] - cfg.min_separation_m) -
+                                 path.begin());
+    if (last == 0) continue;
+    ++rep.queries;
+
+    struct Proposal {
+      std::size_t match;
+      bool by_descriptor;
+      double descriptor_distance;
+      Pose guess;  // the query's pose in the match's frame
+    };
+    std::vector<Proposal> proposals;
+    // By position.
+    std::size_t nearest = n;
+    double nearest_d = cfg.position_radius_m;
+    for (std::size_t j = 0; j < last; ++j) {
+      const double d = (estimate[j].translation() - estimate[i].translation()).head<2>().norm();
+      if (d <= nearest_d) nearest_d = d, nearest = j;
+    }
+    if (nearest < n) proposals.push_back({nearest, false, 1.0, estimate[nearest].inverse() * estimate[i]});
+    // By place: tried when the position search proposes nothing or its proposal fails (the estimate
+    // may have drifted so far that the nearest keyframe in it is not the one revisited).
+    if (cfg.descriptor_candidates > 0) {
+      std::vector<std::pair<double, std::size_t>> keyed;
+      for (std::size_t j = 0; j < last; ++j) keyed.push_back({ring_key_distance(descriptors[i], descriptors[j]), j});
+      const std::size_t take = std::min<std::size_t>(keyed.size(), static_cast<std::size_t>(cfg.descriptor_candidates));
+      std::partial_sort(keyed.begin(), keyed.begin() + static_cast<long>(take), keyed.end());
+      DescriptorMatch best;
+      std::size_t best_j = n;
+      for (std::size_t c = 0; c < take; ++c) {
+        const DescriptorMatch m = compare_descriptors(descriptors[i], descriptors[keyed[c].second]);
+        if (m.distance < best.distance) best = m, best_j = keyed[c].second;
+      }
+      if (best_j < n && best.distance <= cfg.descriptor_max_distance) {
+        // Same place, turned by the descriptor's heading; height and tilt from the estimate.
+        Pose guess = estimate[best_j].inverse() * estimate[i];
+        guess.translation() = Eigen::Vector3d(0, 0, guess.translation().z());
+        guess.linear() = Eigen::AngleAxisd(best.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        proposals.push_back({best_j, true, best.distance, guess});
+      }
+    }
+    for (const Proposal& p : proposals) {
+      (p.by_descriptor ? rep.proposed_by_descriptor : rep.proposed_by_position)++;
+      const auto t0 = std::chrono::steady_clock::now();
+      LoopRecord rec;
+      rec.query = i;
+      rec.match = p.match;
+      rec.by_descriptor = p.by_descriptor;
+      rec.descriptor_distance = p.descriptor_distance;
+      const std::vector<client::MapTile> tiles = local_map(estimate, path, clouds, p.match, cfg);
+      client::RoiMap fine(kTileSize, Eigen::Vector3d::Zero(), roi_cfg);
+      fine.update(tiles);
+      const std::vector<Eigen::Vector3f> source = thin(clouds[i], cfg.source_voxel_m);
+      client::IcpResult r;
+      bool registered = false;
+      if (!p.by_descriptor) {
+        r = client::register_scan(fine, source, p.guess, icp);
+        registered = r.accepted;
+        if (!registered) rec.reason = std::string("icp: ") + r.reject_reason;
+      } else {
+        client::PoseSearch search;
+        search.radius_m = cfg.descriptor_search_m;
+        search.position_step_m = 2.0;
+        search.yaw_range_deg = cfg.descriptor_search_deg;
+        search.yaw_step_deg = 7.5;
+        Eigen::Isometry3d found;
+        registered = client::search_pose(tiles, kTileSize, fine, source, p.guess, search, icp, found);
+        if (registered) r = client::register_scan(fine, source, found, icp);
+        registered = registered && r.accepted;
+        if (!registered) rec.reason = "no registration found";
+      }
+      rep.verify_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      rec.overlap = r.inlier_share;
+      rec.rms_m = r.rms_m;
+      if (registered) {
+        const Pose correction = p.guess.inverse() * r.pose;
+        rec.correction_m = correction.translation().norm();
+        const Pose odometry_rel = graph.odometry_pose(p.match).inverse() * graph.odometry_pose(i);
+        rec.drift_m = (odometry_rel.inverse() * r.pose).translation().norm();
+        if (r.inlier_share < cfg.min_overlap)
+          rec.reason = "overlap too small";
+        else if (r.rms_m > cfg.max_rms_m)
+          rec.reason = "residual too large";
+        else if (!p.by_descriptor &&
+                 (rec.correction_m > cfg.max_correction_m || rotation_angle(correction) > cfg.max_correction_deg * kDeg))
+          rec.reason = "correction too large";
+      }
+      rec.accepted = rec.reason.empty();
+      rep.loops.push_back(rec);
+      if (!rec.accepted) {
+        ++rep.rejected;
+        ++rep.rejected_by_reason[rec.reason];
+        continue;
+      }
+      const std::size_t id = graph.add_loop(p.match, i, r.pose, edge_information(r, cfg));
+      graph.optimize(cfg.solve_iterations);
+      refresh();
+      // Consistency: the graph (GPS, earlier loops) must be able to take the edge in.
+      const double residual = ((estimate[p.match].inverse() * estimate[i]).inverse() * r.pose).translation().norm();
+      if (residual > cfg.max_residual_m) {
+        graph.remove_loop(id);
+        graph.optimize(cfg.solve_iterations);
+        refresh();
+        rec.accepted = false;
+        rec.reason = "inconsistent with the graph";
+        rep.loops.back() = rec;
+        ++rep.rejected;
+        ++rep.rejected_by_reason[rec.reason];
+        continue;
+      }
+      ++rep.accepted;
+      accepted.push_back({p.match, i, r.pose});
+      next_query = path[i] + cfg.cooldown_m;
+      break;
+    }
+  }
+  if (!accepted.empty()) {
+    graph.optimize();
+    refresh();
+  }
+  std::vector<double> res_before, res_after;
+  for (const Accepted& a : accepted) {
+    res_before.push_back(((before[a.a].inverse() * before[a.b]).inverse() * a.z).translation().norm());
+    res_after.push_back(((estimate[a.a].inverse() * estimate[a.b]).inverse() * a.z).translation().norm());
+  }
+  rep.residual_before_m = median(res_before);
+  rep.residual_after_m = median(res_after);
+  return rep;
+}
+
+}  // namespace pl::maps

@@ -1,0 +1,197 @@
+// Loop closure: the place descriptor (same place turned: near zero and the right heading; another
+// place: far), loop edges in the pose graph, close_loops on a simulated town loop whose estimate has
+// drifted (by position, and by place when the drift is too large for the position search), and
+// `pl-map build --poses lidar --loops --report` against the ground truth.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <nlohmann/json.hpp>
+
+#include "pl/common/dataset.hpp"
+#include "pl/common/error.hpp"
+#include "pl/maps/loop_closure.hpp"
+#include "pl/maps/place_descriptor.hpp"
+#include "pl/maps/pose_graph.hpp"
+#include "test_util.hpp"
+
+using pl::maps::Information6;
+using pl::maps::PoseList;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// A little world of walls on flat ground (world frame).
+std::vector<Eigen::Vector3d> world(int seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-60.0, 60.0), h(1.0, 8.0);
+  std::vector<Eigen::Vector3d> pts;
+  for (int k = 0; k < 40; ++k) {
+    const Eigen::Vector2d a(u(rng), u(rng));
+    const double yaw = u(rng), len = 4.0 + std::abs(u(rng)) / 6.0, height = h(rng);
+    const Eigen::Vector2d dir(std::cos(yaw), std::sin(yaw));
+    for (double s = 0; s < len; s += 0.2)
+      for (double z = 0; z < height; z += 0.2) pts.emplace_back(a.x() + s * dir.x(), a.y() + s * dir.y(), z - 1.7);
+  }
+  for (double x = -80; x <= 80; x += 0.5)
+    for (double y = -80; y <= 80; y += 0.5) pts.emplace_back(x, y, -1.7);
+  return pts;
+}
+
+std::vector<Eigen::Vector3f> seen_from(const std::vector<Eigen::Vector3d>& w, const pl::Pose& sensor) {
+  std::vector<Eigen::Vector3f> out;
+  const pl::Pose inv = sensor.inverse();
+  for (const Eigen::Vector3d& p : w) {
+    const Eigen::Vector3d q = inv * p;
+    if (q.head<2>().norm() < 80.0) out.push_back(q.cast<float>());
+  }
+  return out;
+}
+
+// A ring road: 0.5 m a scan round a circle of radius 40 m, back to the start and 30 m on.
+PoseList ring_road(std::size_t n) {
+  PoseList out;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double a = static_cast<double>(i) * 0.5 / 40.0;
+    out.push_back(pl::make_pose(40.0 * std::sin(a), 40.0 - 40.0 * std::cos(a), 0.0, 0, 0, a));
+  }
+  return out;
+}
+
+// The truth's scan-to-scan motions with a yaw bias of `deg_per_scan`, chained from the first pose.
+PoseList drifted(const PoseList& truth, double deg_per_scan) {
+  PoseList out{truth[0]};
+  for (std::size_t i = 1; i < truth.size(); ++i)
+    out.push_back(out.back() * (truth[i - 1].inverse() * truth[i]) * pl::make_pose(0, 0, 0, 0, 0, deg_per_scan * kDeg));
+  return out;
+}
+
+double mean_error(const PoseList& a, const PoseList& b) {
+  double sum = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) sum += (a[i].translation() - b[i].translation()).norm();
+  return sum / static_cast<double>(a.size());
+}
+
+}  // namespace
+
+TEST(PlaceDescriptor, SamePlaceTurnedMatchesWithItsHeadingAnotherPlaceDoesNot) {
+  const auto w = world(3);
+  const pl::Pose a_pose = pl::make_pose(2.0, 1.0, 0, 0, 0, 0.0);
+  const pl::Pose b_pose = pl::make_pose(2.3, 0.8, 0, 0, 0, 50.0 * kDeg);
+  const auto a = pl::maps::make_place_descriptor(seen_from(w, a_pose));
+  const auto b = pl::maps::make_place_descriptor(seen_from(w, b_pose));
+  const auto other = pl::maps::make_place_descriptor(seen_from(world(4), a_pose));
+  const pl::maps::DescriptorMatch same = pl::maps::compare_descriptors(b, a);
+  EXPECT_LT(same.distance, 0.2);
+  // b's heading relative to a's: +50 deg, to within a sector (6 deg).
+  EXPECT_NEAR(same.yaw_rad, 50.0 * kDeg, 6.5 * kDeg);
+  EXPECT_NEAR(pl::maps::compare_descriptors(a, b).yaw_rad, -50.0 * kDeg, 6.5 * kDeg);
+  EXPECT_GT(pl::maps::compare_descriptors(other, a).distance, 2.0 * same.distance + 0.1);
+  // The ring key ignores the heading; another place's differs more.
+  EXPECT_LT(pl::maps::ring_key_distance(a, b), pl::maps::ring_key_distance(a, other));
+  EXPECT_THROW(pl::maps::compare_descriptors(a, pl::maps::make_place_descriptor({}, {10, 30, 80.0, 2.0})), pl::Error);
+}
+
+TEST(PoseGraph, ALoopEdgeTakesOutTheDriftAroundTheLoop) {
+  const PoseList truth = ring_road(560);  // 280 m: once round (251 m) and on
+  const PoseList odo = drifted(truth, 0.02);
+  pl::maps::PoseGraph graph(odo, {}, {}, Eigen::Vector3d::Zero(), {});
+  graph.optimize();
+  EXPECT_NEAR(mean_error(graph.poses(), odo), 0.0, 1e-9);  // nothing to solve: the chain as it came
+  const auto& kf = graph.keyframes();
+  // The revisit: the last keyframe against the one nearest it on the first lap.
+  const std::size_t last = kf.size() - 1;
+  std::size_t match = 0;
+  for (std::size_t k = 0; k < kf.size() / 2; ++k)
+    if ((truth[kf[k]].translation() - truth[kf[last]].translation()).norm() <
+        (truth[kf[match]].translation() - truth[kf[last]].translation()).norm())
+      match = k;
+  Information6 info = Information6::Identity() * 4e4;  // 5 mm
+  info.bottomRightCorner<3, 3>() *= 3e3;              // 0.005 deg
+  graph.add_loop(match, last, truth[kf[match]].inverse() * truth[kf[last]], info);
+  graph.optimize();
+  const double before = mean_error(odo, truth), after = mean_error(graph.poses(), truth);
+  EXPECT_GT(before, 3.0);
+  EXPECT_LT(after, before / 4.0);
+  EXPECT_EQ(graph.report().loop_edges, 1u);
+  EXPECT_THROW(graph.add_loop(0, kf.size(), pl::Pose::Identity(), info), pl::Error);
+  EXPECT_THROW(graph.add_loop(0, 1, pl::Pose::Identity(), Information6::Zero()), pl::Error);
+}
+
+TEST(LoopClosure, FindsTheRevisitByPositionAndByPlaceAndTakesOutTheDrift) {
+  const auto w = world(7);
+  const PoseList truth = ring_road(560);
+  for (double drift_deg : {0.004, 0.015}) {
+    SCOPED_TRACE("yaw drift " + std::to_string(drift_deg) + " deg a scan");
+    const PoseList odo = drifted(truth, drift_deg);
+    pl::maps::PoseGraph graph(odo, {}, {}, Eigen::Vector3d::Zero(), {});
+    std::vector<std::vector<Eigen::Vector3f>> clouds;
+    for (std::size_t s : graph.keyframes()) clouds.push_back(seen_from(w, truth[s]));
+    graph.optimize();
+    std::size_t calls = 0;
+    const pl::maps::LoopReport rep = pl::maps::close_loops(graph, clouds, {}, [&](std::size_t, std::size_t) { ++calls; });
+    EXPECT_EQ(calls, graph.keyframes().size());
+    ASSERT_GE(rep.accepted, 1u);
+    for (const pl::maps::LoopRecord& l : rep.loops) {
+      if (!l.accepted) continue;
+      // A true revisit: the two keyframes really are close.
+      const auto& kf = graph.keyframes();
+      EXPECT_LT((truth[kf[l.query]].translation() - truth[kf[l.match]].translation()).norm(), 12.0);
+      EXPECT_GT(l.overlap, 0.6);
+    }
+    const double before = mean_error(odo, truth), after = mean_error(graph.poses(), truth);
+    EXPECT_LT(after, before / 3.0) << "before " << before << " after " << after;
+    EXPECT_GT(rep.residual_before_m, 0.5);
+    EXPECT_LT(rep.residual_after_m, rep.residual_before_m / 4.0);
+    // 0.015 deg a scan: the end has drifted some 20 m, out of the position search's reach.
+    if (drift_deg > 0.01) {
+      EXPECT_GE(rep.proposed_by_descriptor, 1u);
+      bool by_place = false;
+      for (const auto& l : rep.loops) by_place |= l.accepted && l.by_descriptor;
+      EXPECT_TRUE(by_place);
+    }
+  }
+}
+
+TEST(LoopClosure, RejectsCloudsThatDoNotMatchTheKeyframes) {
+  const PoseList truth = ring_road(100);
+  pl::maps::PoseGraph graph(truth, {}, {}, Eigen::Vector3d::Zero(), {});
+  EXPECT_THROW(pl::maps::close_loops(graph, {}, {}), pl::Error);
+}
+
+// `pl-map build --poses lidar --loops` on a simulated town loop (16 beams, so that the odometry
+// drifts a few metres over the 600 m): the loop closes, the trajectory gets closer to the truth.
+TEST(LoopClosure, PlMapBuildClosesTheTownLoop) {
+  const pl::test::TempDir dir;
+  auto sim = pl::test::run(pl::test::tool("pl-sim") + " --route loop --lidar vlp16 --out " + (dir / "drive"));
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  const std::string build = pl::test::tool("pl-map") + " build --dataset " + (dir / "drive") + " --poses lidar --loops --out " +
+                            (dir / "map.pcd") + " --traj-out " + (dir / "poses.txt") + " --report " + (dir / "report.json");
+  auto r = pl::test::run(build);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("loop closure:"), std::string::npos) << r.output;
+  std::ifstream f(dir / "report.json");
+  const nlohmann::json rep = nlohmann::json::parse(f);
+  const auto& loops = rep.at("loops");
+  EXPECT_GE(loops.at("accepted").get<int>(), 1);
+  EXPECT_EQ(loops.at("edges").size(), loops.at("accepted").get<std::size_t>() + loops.at("rejected").get<std::size_t>());
+  EXPECT_EQ(rep.at("pose_graph").at("loop_edges").get<int>(), loops.at("accepted").get<int>());
+  const double before = rep.at("mean_error_before_m").get<double>(), after = rep.at("mean_error_after_m").get<double>();
+  EXPECT_GT(before, 0.5);
+  EXPECT_LT(after, before / 2.0) << r.output;
+  // Every accepted loop joins two scans that really are near each other.
+  pl::Dataset ds = pl::open_dataset(dir / "drive");
+  for (const auto& e : loops.at("edges")) {
+    if (!e.at("accepted").get<bool>()) continue;
+    const auto q = e.at("query_scan").get<std::size_t>(), m = e.at("match_scan").get<std::size_t>();
+    EXPECT_LT((ds.ground_truth.poses[q].translation() - ds.ground_truth.poses[m].translation()).norm(), 12.0);
+  }
+  // --loops corrects LiDAR odometry: with ground-truth poses it is an error naming the fix.
+  r = pl::test::run(pl::test::tool("pl-map") + " build --dataset " + (dir / "drive") + " --loops --out " + (dir / "x.pcd"));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("--loops needs --poses lidar"), std::string::npos) << r.output;
+}
