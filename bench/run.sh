@@ -30,3 +30,11 @@ fi
 echo
 echo "== localize_kitti00: the whole product on the KITTI 00 trajectory, all 4,541 scans (pl-sim data)"
 bash "$(dirname "$0")/localize_kitti00.sh" "$bin" "$root/build/bench"
+
+echo
+echo "== gloam_kitti00: G-LOAM map building on the KITTI 00 trajectory, all 4,541 scans (pl-sim data)"
+bash "$(dirname "$0")/gloam_kitti00.sh" "$bin" "$root/build/bench"
+
+echo
+echo "== gloam_kitti05: G-LOAM on real data, KITTI raw drive 0005 with a consumer GPS"
+bash "$(dirname "$0")/gloam_kitti05.sh" "$bin" "$root/build/bench"

@@ -64,7 +64,11 @@ std::vector<Eigen::Vector3f> thin(const std::vector<Eigen::Vector3f>& cloud, dou
 }
 
 Information6 edge_information(const client::IcpResult& r, const LoopClosureConfig& cfg) {
-  Information6 cov = r.covariance;
+  // ICP perturbs the pose on the left in the match's frame (R' = exp(w) R, t' = t + v); the graph's
+  // loop residual is a perturbation on the right, in the query's frame: (R^T v, R^T w).
+  Information6 a = Information6::Zero();
+  a.topLeftCorner<3, 3>() = a.bottomRightCorner<3, 3>() = r.pose.linear().transpose();
+  Information6 cov = a * r.covariance * a.transpose();
   cov = 0.5 * (cov + cov.transpose());
   const double st = cfg.sigma_m, sr = cfg.sigma_deg * kDeg;
   cov.diagonal() += (Eigen::Matrix<double, 6, 1>() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr).finished();
@@ -148,7 +152,7 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
         if (m.distance < best.distance) best = m, best_j = keyed[c].second;
       }
       if (best_j < n && best.distance <= cfg.descriptor_max_distance) {
-        // Same place, turned by the descriptor's heading; height and tilt from the estimate.
+        // Same place, turned by the descriptor's heading; height from the estimate.
         Pose guess = estimate[best_j].inverse() * estimate[i];
         guess.translation() = Eigen::Vector3d(0, 0, guess.translation().z());
         guess.linear() = Eigen::AngleAxisd(best.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
@@ -180,10 +184,13 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
         search.yaw_range_deg = cfg.descriptor_search_deg;
         search.yaw_step_deg = 7.5;
         Eigen::Isometry3d found;
-        registered = client::search_pose(tiles, kTileSize, fine, source, p.guess, search, icp, found);
-        if (registered) r = client::register_scan(fine, source, found, icp);
-        registered = registered && r.accepted;
-        if (!registered) rec.reason = "no registration found";
+        if (!client::search_pose(tiles, kTileSize, fine, source, p.guess, search, icp, found)) {
+          rec.reason = "no registration found";
+        } else {
+          r = client::register_scan(fine, source, found, icp);
+          registered = r.accepted;
+          if (!registered) rec.reason = std::string("icp: ") + r.reject_reason;
+        }
       }
       rep.verify_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       rec.overlap = r.inlier_share;
@@ -208,17 +215,20 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
         ++rep.rejected_by_reason[rec.reason];
         continue;
       }
+      // Trial: the edge goes in and the graph is re-solved; it stays only if the graph can take it in.
+      const std::vector<double> saved = graph.save();
+      const double gps_before = graph.gps_cost();
       const std::size_t id = graph.add_loop(p.match, i, r.pose, edge_information(r, cfg));
       graph.optimize(cfg.solve_iterations);
       refresh();
-      // Consistency: the graph (GPS, earlier loops) must be able to take the edge in.
       const double residual = ((estimate[p.match].inverse() * estimate[i]).inverse() * r.pose).translation().norm();
-      if (residual > cfg.max_residual_m) {
+      const double gps_rise = graph.gps_cost() - gps_before;
+      if (residual > cfg.max_residual_m || gps_rise > cfg.max_gps_cost_rise) {
         graph.remove_loop(id);
-        graph.optimize(cfg.solve_iterations);
+        graph.restore(saved);
         refresh();
         rec.accepted = false;
-        rec.reason = "inconsistent with the graph";
+        rec.reason = residual > cfg.max_residual_m ? "not absorbed by the graph" : "at odds with the GPS";
         rep.loops.back() = rec;
         ++rep.rejected;
         ++rep.rejected_by_reason[rec.reason];

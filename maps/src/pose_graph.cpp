@@ -163,6 +163,7 @@ struct PoseGraph::Impl {
   std::vector<GpsOnKeyframe> fixes;
   ceres::Problem problem;
   std::vector<ceres::ResidualBlockId> loops;  // nullptr once removed
+  std::vector<ceres::ResidualBlockId> gps_blocks;
   PoseGraphReport rep;
 };
 
@@ -254,8 +255,9 @@ PoseGraph::PoseGraph(const PoseList& odometry_poses, const std::vector<Informati
   }
   for (const GpsOnKeyframe& e : g.fixes) {
     auto* f = new GpsResidual{e.body, e.world, e.sigma.cwiseInverse()};
-    g.problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GpsResidual, 3, 3, 4>(f), new ceres::CauchyLoss(cfg.gps_kernel_sigmas),
-                               g.nodes[e.keyframe].t, g.nodes[e.keyframe].q);
+    g.gps_blocks.push_back(g.problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GpsResidual, 3, 3, 4>(f),
+                                                      new ceres::CauchyLoss(cfg.gps_kernel_sigmas), g.nodes[e.keyframe].t,
+                                                      g.nodes[e.keyframe].q));
   }
 }
 
@@ -287,6 +289,34 @@ void PoseGraph::remove_loop(std::size_t id) {
   g.problem.RemoveResidualBlock(g.loops[id]);
   g.loops[id] = nullptr;
   --g.rep.loop_edges;
+}
+
+std::vector<double> PoseGraph::save() const {
+  std::vector<double> out;
+  out.reserve(impl_->nodes.size() * 7);
+  for (const Node& n : impl_->nodes) out.insert(out.end(), {n.t[0], n.t[1], n.t[2], n.q[0], n.q[1], n.q[2], n.q[3]});
+  return out;
+}
+
+void PoseGraph::restore(const std::vector<double>& state) {
+  Impl& g = *impl_;
+  if (state.size() != g.nodes.size() * 7) throw Error("pose graph: a saved state of another graph");
+  for (std::size_t k = 0; k < g.nodes.size(); ++k) {
+    std::copy(state.begin() + static_cast<long>(7 * k), state.begin() + static_cast<long>(7 * k + 3), g.nodes[k].t);
+    std::copy(state.begin() + static_cast<long>(7 * k + 3), state.begin() + static_cast<long>(7 * k + 7), g.nodes[k].q);
+  }
+}
+
+double PoseGraph::gps_cost() const {
+  Impl& g = *impl_;
+  if (g.gps_blocks.empty()) return 0.0;
+  ceres::Problem::EvaluateOptions opt;
+  opt.residual_blocks = g.gps_blocks;
+  opt.apply_loss_function = true;
+  opt.num_threads = 1;
+  double cost = 0.0;
+  g.problem.Evaluate(opt, &cost, nullptr, nullptr, nullptr);
+  return cost;
 }
 
 void PoseGraph::optimize(int max_iterations) {

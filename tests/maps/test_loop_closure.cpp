@@ -122,6 +122,53 @@ TEST(PoseGraph, ALoopEdgeTakesOutTheDriftAroundTheLoop) {
   EXPECT_THROW(graph.add_loop(0, 1, pl::Pose::Identity(), Information6::Zero()), pl::Error);
 }
 
+TEST(PoseGraph, GpsCostTellsATrueLoopFromAFalseOneAndSaveRestoreUndoesATrial) {
+  // A good GPS along the ring road: a true loop leaves the fixes' cost alone, a loop 4 m off raises it.
+  const PoseList truth = ring_road(560);
+  const PoseList odo = drifted(truth, 0.002);
+  std::vector<pl::maps::GpsEdge> gps;
+  for (std::size_t i = 0; i < truth.size(); i += 2) {
+    pl::maps::GpsEdge g;
+    g.scan = i;
+    g.antenna_world = truth[i].translation();
+    g.std_m = 0.05;
+    g.status = pl::kGpsFixed;
+    gps.push_back(g);
+  }
+  std::vector<Information6> info(odo.size(), Information6::Identity() * 1e4);
+  pl::maps::PoseGraph graph(odo, info, gps, Eigen::Vector3d::Zero(), {});
+  graph.optimize();
+  const auto& kf = graph.keyframes();
+  const std::size_t last = kf.size() - 1;
+  std::size_t match = 0;
+  for (std::size_t k = 0; k < kf.size() / 2; ++k)
+    if ((truth[kf[k]].translation() - truth[kf[last]].translation()).norm() <
+        (truth[kf[match]].translation() - truth[kf[last]].translation()).norm())
+      match = k;
+  Information6 tight = Information6::Identity() * 4e4;
+  tight.bottomRightCorner<3, 3>() *= 3e3;
+  const pl::Pose truth_rel = truth[kf[match]].inverse() * truth[kf[last]];
+  const double base = graph.gps_cost();
+  const std::vector<double> saved = graph.save();
+  const PoseList before = graph.poses();
+
+  const std::size_t bad = graph.add_loop(match, last, truth_rel * pl::make_pose(4.0, 0, 0, 0, 0, 0), tight);
+  graph.optimize(20);
+  EXPECT_GT(graph.gps_cost() - base, 10.0);
+  graph.remove_loop(bad);
+  graph.restore(saved);
+  const PoseList back = graph.poses();
+  for (std::size_t i = 0; i < back.size(); ++i) ASSERT_LT((back[i].translation() - before[i].translation()).norm(), 1e-12);
+  EXPECT_NEAR(graph.gps_cost(), base, 1e-9);
+
+  graph.add_loop(match, last, truth_rel, tight);
+  graph.optimize(20);
+  EXPECT_LT(graph.gps_cost() - base, 1.0);
+  EXPECT_EQ(graph.report().loop_edges, 1u);
+  EXPECT_THROW(graph.remove_loop(bad), pl::Error);  // already out
+  EXPECT_THROW(graph.restore({1.0, 2.0}), pl::Error);
+}
+
 TEST(LoopClosure, FindsTheRevisitByPositionAndByPlaceAndTakesOutTheDrift) {
   const auto w = world(7);
   const PoseList truth = ring_road(560);
@@ -153,6 +200,44 @@ TEST(LoopClosure, FindsTheRevisitByPositionAndByPlaceAndTakesOutTheDrift) {
       bool by_place = false;
       for (const auto& l : rep.loops) by_place |= l.accepted && l.by_descriptor;
       EXPECT_TRUE(by_place);
+    }
+  }
+}
+
+// Out along a road and back the other way: the revisits face the other way (yaw 180 deg). Found by
+// position, and with the position search switched off by place alone (the descriptor's heading must
+// come out near 180 deg for the search round it to register).
+TEST(LoopClosure, ClosesARevisitDrivenTheOtherWay) {
+  const auto w = world(9);
+  PoseList truth;
+  for (int i = 0; i < 200; ++i) truth.push_back(pl::make_pose(-50.0 + 0.5 * i, -1.5, 0, 0, 0, 0));  // east, 100 m
+  for (int i = 1; i <= 10; ++i) {  // a U-turn of radius 1.5 m
+    const double a = M_PI * i / 10.0;
+    truth.push_back(pl::make_pose(50.0 + 1.5 * std::sin(a), -1.5 * std::cos(a), 0, 0, 0, a));
+  }
+  for (int i = 1; i < 200; ++i) truth.push_back(pl::make_pose(50.0 - 0.5 * i, 1.5, 0, 0, 0, M_PI));  // back west
+  const PoseList odo = drifted(truth, 0.01);
+  for (bool place_only : {false, true}) {
+    SCOPED_TRACE(place_only ? "by place only" : "by position and place");
+    pl::maps::LoopClosureConfig cfg;
+    if (place_only) cfg.position_radius_m = 0.0;
+    pl::maps::PoseGraph graph(odo, {}, {}, Eigen::Vector3d::Zero(), {});
+    std::vector<std::vector<Eigen::Vector3f>> clouds;
+    for (std::size_t s : graph.keyframes()) clouds.push_back(seen_from(w, truth[s]));
+    const pl::maps::LoopReport rep = pl::maps::close_loops(graph, clouds, cfg);
+    ASSERT_GE(rep.accepted, 1u);
+    bool by_place = false;
+    for (const pl::maps::LoopRecord& l : rep.loops) {
+      if (!l.accepted) continue;
+      const auto& kf = graph.keyframes();
+      EXPECT_LT((truth[kf[l.query]].translation() - truth[kf[l.match]].translation()).norm(), 12.0);
+      by_place |= l.by_descriptor;
+    }
+    const double before = mean_error(odo, truth), after = mean_error(graph.poses(), truth);
+    EXPECT_LT(after, before / 2.0) << "before " << before << " after " << after;
+    if (place_only) {
+      EXPECT_TRUE(by_place);
+      EXPECT_EQ(rep.proposed_by_position, 0u);
     }
   }
 }

@@ -8,7 +8,7 @@
 // against a local map around the earlier keyframe (its neighbours along the drive merged, normals
 // estimated): it enters the graph only with enough overlap, a small residual, a well-conditioned
 // problem and (by position) a correction the estimate can explain; the graph is re-solved with it,
-// and the edge stays only if the graph can take it in (GPS and earlier loops agree), so later
+// and the edge stays only if the graph can take it in without leaving the GPS fixes, so later
 // proposals start from the corrected estimate. A last solve runs to convergence at the end.
 #pragma once
 
@@ -48,10 +48,15 @@ struct LoopClosureConfig {
   // loop), and a loop measured between two views of one place must outweigh it.
   double sigma_m = 0.005;
   double sigma_deg = 0.005;
-  // The graph is re-solved (this many iterations) with each new edge; an edge it cannot take in (its
-  // translation residual after the solve above this: at odds with GPS or earlier loops) is taken out.
+  // Trial: the graph is re-solved (this many iterations) with each new edge, which is taken out again
+  // (and the estimate put back) when the graph cannot absorb it (its translation residual after the
+  // solve above max_residual_m: at odds with earlier loops, or too much to close in one go) or when it
+  // pulls the graph away from the GPS fixes (their robust cost rises by more than max_gps_cost_rise,
+  // in squared standard deviations). A loop edge is tight, so without GPS or earlier loops nothing
+  // can veto it: the registration checks above carry the weight then.
   int solve_iterations = 20;
   double max_residual_m = 0.3;
+  double max_gps_cost_rise = 10.0;
   PlaceDescriptorConfig descriptor;
 };
 

@@ -2,7 +2,7 @@
 // the odometry chain (the relative pose between consecutive keyframes, weighted by the front end's
 // registration information), GPS positions of the antenna (pose * lever arm) with a robust loss, so
 // that multipath fixes are down-weighted, and loop closures (relative poses between keyframes far
-// apart along the drive, measured by ICP; see loop_closure.hpp), also robust. Levenberg-Marquardt in
+// apart along the drive, measured by ICP and verified before they enter; see loop_closure.hpp). Levenberg-Marquardt in
 // Ceres, re-solved as loops are added; every scan is then placed at its odometry offset from the
 // nearest preceding keyframe.
 #pragma once
@@ -108,6 +108,12 @@ class PoseGraph {
   std::size_t add_loop(std::size_t a, std::size_t b, const Pose& relative, const Information6& information);
   // Takes a loop edge out again (one found inconsistent with the rest of the graph).
   void remove_loop(std::size_t id);
+  // The estimate (every keyframe), to put back after a trial.
+  std::vector<double> save() const;
+  void restore(const std::vector<double>& state);
+  // The GPS edges' cost at the current estimate (robust loss applied; 0 without GPS): a loop that
+  // pulls the graph away from the fixes raises it.
+  double gps_cost() const;
   // Levenberg-Marquardt from the current estimate (at most max_iterations; 0: the config's).
   void optimize(int max_iterations = 0);
   // One pose per scan: each at its odometry offset from its keyframe.

@@ -17,7 +17,8 @@ struct MapAccuracyOptions {
   // surface: each map point's distance to the reference surface — the plane through the reference
   // points within 2.5 spacings of its nearest one, when they are planar and the nearest lies within
   // 2 spacings (else the point distance); point: the distance to the nearest reference point, which
-  // a reference sampled every s metres inflates by up to ~s/sqrt(2).
+  // a reference sampled every s metres inflates by up to ~s/sqrt(2). The surface distance does not
+  // see a shift along the surface (a map slid along a wall scores 0): report both.
   bool surface = true;
   double within = 0.05;           // metres: the headline share
   double coverage_radius = 0.5;   // metres: a reference point is covered when a map point is this close
@@ -26,7 +27,7 @@ struct MapAccuracyOptions {
 
 struct ShareWithin {
   double distance = 0.0;  // metres
-  std::size_t points = 0;  // map points whose nearest reference point is at most `distance` away
+  std::size_t points = 0;  // map points at most `distance` from the reference (by the metric used)
   double share = 0.0;      // points / map points
 };
 
