@@ -32,7 +32,8 @@ const char* kUsage =
     "           alone (lidar; started at the first ground-truth pose when there is one; deskew auto: on\n"
     "           for recordings without meta.json) into a voxelized map (PCD in the dataset's world\n"
     "           frame, its geodetic origin recorded in the header); --traj-out writes the LiDAR pose of\n"
-    "           every scan (KITTI format), line for line with the dataset; --gps (with --poses lidar): a pose graph\n"
+    "           every scan, line for line with the dataset (KITTI format; TUM with the scan times when FILE\n"
+    "           ends in .tum); --gps (with --poses lidar): a pose graph\n"
     "           of keyframes over the odometry with the drive's GPS fixes (robust to multipath) sets the poses;\n"
     "           --loops (with --poses lidar): loop closures found by position and by a place descriptor, verified\n"
     "           by ICP, join the graph (re-solved on each); --report writes JSON: keyframes, GPS edges and outliers,\n"
@@ -222,9 +223,15 @@ int cmd_build(const pl::Args& a) {
     std::printf("wrote %s\n", report_path->c_str());
   }
   if (traj_out) {
+    // KITTI (12 numbers a line), or TUM with the scan times when the file name ends in .tum.
     pl::Trajectory kitti = placed;
-    kitti.format = pl::PoseFormat::Kitti;
-    pl::write_kitti_poses(*traj_out, kitti);
+    kitti.times = ds.times;
+    const bool tum = traj_out->size() > 4 && traj_out->compare(traj_out->size() - 4, 4, ".tum") == 0;
+    kitti.format = tum ? pl::PoseFormat::Tum : pl::PoseFormat::Kitti;
+    if (tum)
+      pl::write_tum_poses(*traj_out, kitti);
+    else
+      pl::write_kitti_poses(*traj_out, kitti);
     const char* source = poses == "gt"            ? "ground truth"
                          : use_gps && use_loops ? "lidar odometry + GPS + loops pose graph"
                          : use_gps              ? "lidar odometry + GPS pose graph"

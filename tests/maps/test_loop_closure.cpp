@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sstream>
 
 #include <nlohmann/json.hpp>
 
@@ -275,6 +276,23 @@ TEST(LoopClosure, PlMapBuildClosesTheTownLoop) {
     const auto q = e.at("query_scan").get<std::size_t>(), m = e.at("match_scan").get<std::size_t>();
     EXPECT_LT((ds.ground_truth.poses[q].translation() - ds.ground_truth.poses[m].translation()).norm(), 12.0);
   }
+  // --traj-out FILE.tum: the same poses as TUM lines with the scan times.
+  r = pl::test::run(pl::test::tool("pl-map") + " build --dataset " + (dir / "drive") + " --poses gt --every 100 --out " +
+                    (dir / "gt.pcd") + " --traj-out " + (dir / "gt.tum"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream tum(dir / "gt.tum");
+  std::string line;
+  std::size_t lines = 0;
+  while (std::getline(tum, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream in(line);
+    double v[8];
+    for (double& x : v) ASSERT_TRUE(in >> x) << line;
+    EXPECT_NEAR(v[0], ds.times[lines], 1e-6);
+    EXPECT_NEAR(v[1], ds.ground_truth.poses[lines].translation().x(), 1e-4);
+    ++lines;
+  }
+  EXPECT_EQ(lines, ds.size());
   // --loops corrects LiDAR odometry: with ground-truth poses it is an error naming the fix.
   r = pl::test::run(pl::test::tool("pl-map") + " build --dataset " + (dir / "drive") + " --loops --out " + (dir / "x.pcd"));
   EXPECT_EQ(r.exit_code, 2);
