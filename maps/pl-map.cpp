@@ -29,7 +29,8 @@ const char* kUsage =
     "  build    --dataset DIR --out map.pcd [--poses gt|lidar] [--gps] [--loops] [--traj-out poses.txt] [--report FILE.json]\n"
     "           [--deskew auto|on|off] [--voxel 0.2] [--every N] [--max-range 80]\n"
     "           merge a drive's scans at their ground-truth poses (gt) or at the poses of LiDAR odometry\n"
-    "           alone (lidar; started at the first ground-truth pose when there is one; deskew auto: on\n"
+    "           (lidar; without --gps started at the first ground-truth pose when there is one, with --gps the\n"
+    "           ground truth is not used; deskew auto: on\n"
     "           for recordings without meta.json) into a voxelized map (PCD in the dataset's world\n"
     "           frame, its geodetic origin recorded in the header); --traj-out writes the LiDAR pose of\n"
     "           every scan, line for line with the dataset (KITTI format; TUM with the scan times when FILE\n"
@@ -108,9 +109,12 @@ int cmd_build(const pl::Args& a) {
     lc.deskew = deskew == "on" || (deskew == "auto" && !ds.has_meta_file);
     if (ds.meta.sensor.rate_hz > 0) lc.scan_period_s = 1.0 / ds.meta.sensor.rate_hz;
     pl::maps::LoamOdometry odometry(lc);
-    // Started at the first ground-truth pose when there is one, so that the map lies in the dataset's
-    // world frame; otherwise in the first scan's frame, which has no geodetic origin.
-    if (ds.has_ground_truth())
+    // Without GPS: started at the first ground-truth pose when there is one, so that the map lies in
+    // the dataset's world frame; otherwise in the first scan's frame, which has no geodetic origin.
+    // With GPS the ground truth is not used at all: the odometry starts in the first scan's frame
+    // and the fixes place it.
+    const bool start_at_truth = ds.has_ground_truth() && !use_gps;
+    if (start_at_truth)
       odometry.start(ds.ground_truth.poses[0]);
     else
       origin.reset();
@@ -145,9 +149,15 @@ int cmd_build(const pl::Args& a) {
     placed.times = ds.times;
     std::sort(ms.begin(), ms.end());
     std::printf("lidar odometry: %zu scans (deskew %s), median %.1f ms a scan, %zu degenerate%s\n", ds.size(), lc.deskew ? "on" : "off",
-                ms[ms.size() / 2], degenerate, ds.has_ground_truth() ? ", started at the first ground-truth pose" : ", in the first scan's frame");
+                ms[ms.size() / 2], degenerate, start_at_truth ? ", started at the first ground-truth pose" : ", in the first scan's frame");
     report["odometry"] = {{"median_ms", ms[ms.size() / 2]}, {"degenerate", degenerate}, {"deskew", lc.deskew}};
-    if (ds.has_ground_truth()) report["mean_error_before_m"] = mean_error(placed);
+    if (ds.has_ground_truth()) {
+      // The odometry's error as if it had started at the first ground-truth pose.
+      pl::Trajectory from_truth = placed;
+      if (!start_at_truth)
+        for (pl::Pose& p : from_truth.poses) p = ds.ground_truth.poses[0] * p;
+      report["mean_error_before_m"] = mean_error(from_truth);
+    }
     if (use_gps || use_loops) {
       pl::maps::PoseGraph graph(placed.poses, information, gps_edges, ds.meta.vehicle.gps_lever_arm, gc);
       graph.optimize();

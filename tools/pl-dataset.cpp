@@ -40,8 +40,9 @@ const char* kUsage =
     "degrade-gps  writes OUT_DIR: the same drive (every file of DIR reached through a symlink, nothing\n"
     "       copied) with a consumer-grade gps.csv: DIR's GPS fixes thinned to --rate Hz, each moved by\n"
     "       zero-mean Gaussian noise of --sigma metres per horizontal axis (east, north) and 1.5 x sigma\n"
-    "       vertically, status single, std_m = sigma. Same seed, same file. OUT_DIR must not exist, be\n"
-    "       empty, or be an earlier degrade-gps output (it is replaced).\n";
+    "       vertically (white: independent from fix to fix), status single, std_m = sigma. Same seed, same\n"
+    "       file. OUT_DIR must either not exist, be empty, or be an earlier degrade-gps output (marked by\n"
+    "       .pl-degrade-gps; it is replaced).\n";
 
 double median_of(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -302,7 +303,9 @@ double rms(const std::vector<double>& v) {
 }
 
 // Makes `out` an empty folder for degrade-gps: it may not exist yet, be empty, or hold an earlier
-// output (only symlinks and gps.csv), which is cleared. It must not be the source or inside it.
+// output (marked by kMarker; only symlinks, the marker and gps.csv), which is cleared. It must not be
+// the source or inside it.
+const char* kMarker = ".pl-degrade-gps";
 void prepare_output_folder(const std::string& source, const std::string& out) {
   namespace fs = std::filesystem;
   const fs::path src = fs::canonical(source);
@@ -318,13 +321,19 @@ void prepare_output_folder(const std::string& source, const std::string& out) {
   if (!fs::is_directory(fs::symlink_status(out)))
     throw pl::Error("--out " + out + " exists and is not a folder; remove it or choose another path");
   std::vector<fs::path> entries;
-  for (const auto& e : fs::directory_iterator(out)) {
-    const bool ours = e.is_symlink() || (e.path().filename() == "gps.csv" && e.is_regular_file());
+  for (const auto& e : fs::directory_iterator(out)) entries.push_back(e.path());
+  if (entries.empty()) return;
+  // Only a folder this command made is cleared: it carries the marker, and nothing but symlinks,
+  // the marker and gps.csv.
+  if (!fs::is_regular_file(fs::symlink_status(fs::path(out) / kMarker)))
+    throw pl::Error("--out " + out + " is not empty and is not an earlier degrade-gps output (no " + kMarker +
+                    " in it); nothing was changed: remove the folder yourself or choose another one");
+  for (const auto& e : entries) {
+    const std::string name = e.filename().string();
+    const bool ours = fs::is_symlink(fs::symlink_status(e)) || name == kMarker || (name == "gps.csv" && fs::is_regular_file(e));
     if (!ours)
-      throw pl::Error("--out " + out + " already holds " + e.path().filename().string() +
-                      ", which is not part of an earlier degrade-gps output (only symlinks and gps.csv are); remove the "
-                      "folder or choose another one");
-    entries.push_back(e.path());
+      throw pl::Error("--out " + out + " holds " + name + ", which degrade-gps does not write; nothing was changed: remove the "
+                      "folder yourself or choose another one");
   }
   for (const auto& e : entries) fs::remove(e);
 }
@@ -376,7 +385,9 @@ int cmd_degrade_gps(const pl::Args& args) {
   std::vector<double> de, dn, du, dh;
   for (const auto& f : kept) {
     const pl::EnuFrame enu(f.position);
-    const Eigen::Vector3d offset(sigma * normal(), sigma * normal(), 1.5 * sigma * normal());
+    // Drawn in a fixed order (constructor arguments are evaluated in an unspecified order).
+    const double east = normal(), north = normal(), up = normal();
+    const Eigen::Vector3d offset(sigma * east, sigma * north, 1.5 * sigma * up);
     noisy.push_back({f.t, enu.to_geodetic(offset), sigma, pl::kGpsSingle});
   }
 
@@ -387,6 +398,12 @@ int cmd_degrade_gps(const pl::Args& args) {
     if (e.path().filename() == "gps.csv") continue;  // replaced below
     fs::create_symlink(fs::canonical(e.path()), fs::path(out) / e.path().filename());
     ++links;
+  }
+  {
+    std::FILE* marker = std::fopen((fs::path(out) / kMarker).c_str(), "w");
+    if (!marker) throw pl::Error(out + ": cannot write " + kMarker);
+    std::fprintf(marker, "made by pl-dataset degrade-gps from %s; pl-dataset degrade-gps may replace this folder\n", src.string().c_str());
+    std::fclose(marker);
   }
   const std::string csv_path = (fs::path(out) / "gps.csv").string();
   std::FILE* csv = std::fopen(csv_path.c_str(), "w");

@@ -360,6 +360,9 @@ TEST(Dataset, DegradeGpsRejectsBadInputClearly) {
   TempDir dir;
   write_raw_drive(dir / "drive", 12);
   write_file(dir / "taken/notes.txt", "mine");
+  // A hand-made drive: scans linked from elsewhere, its own receiver log. Not ours to clear.
+  write_file(dir / "linked/gps.csv", "t,lat,lon,alt,std_m,status\n");
+  std::filesystem::create_symlink(dir / "drive", dir / "linked/scans");
   const std::string tool = pl::test::tool("pl-dataset") + " degrade-gps " + (dir / "drive");
   const std::vector<std::pair<std::string, std::string>> cases = {
       {" --out " + (dir / "c") + " --rate 0", "--rate takes"},
@@ -367,7 +370,8 @@ TEST(Dataset, DegradeGpsRejectsBadInputClearly) {
       {" --out " + (dir / "c") + " --sigma -1", "--sigma takes"},
       {" --out " + (dir / "drive/inside"), "inside the source folder"},
       {" --out " + (dir / "drive"), "the source folder itself"},
-      {" --out " + (dir / "taken"), "notes.txt"},
+      {" --out " + (dir / "taken"), "not an earlier degrade-gps output"},
+      {" --out " + (dir / "linked"), "not an earlier degrade-gps output"},
       {"", "missing --out"},
       {" --out " + (dir / "c") + " --sigmaa 2", "unknown option --sigmaa"},
   };
@@ -378,4 +382,6 @@ TEST(Dataset, DegradeGpsRejectsBadInputClearly) {
   }
   EXPECT_FALSE(std::filesystem::exists(dir / "drive/inside"));
   EXPECT_EQ(pl::test::read_file(dir / "taken/notes.txt"), "mine");
+  EXPECT_EQ(pl::test::read_file(dir / "linked/gps.csv"), "t,lat,lon,alt,std_m,status\n");
+  EXPECT_TRUE(std::filesystem::is_symlink(dir / "linked/scans"));
 }

@@ -275,7 +275,10 @@ TEST(PoseGraph, GpsEdgesFromADatasetFollowTheScanTimes) {
   EXPECT_LT((edges[3].antenna_world - Eigen::Vector3d(1, 1, 1)).norm(), 1e-6);
 }
 
-TEST(PoseGraph, PlMapBuildWithGpsBeatsLidarOdometryAlone) {
+// With --gps the ground truth is not used: the odometry starts in the first scan's frame and the
+// fixes place it. It lands within a few centimetres of the truth, near what the odometry achieves
+// when it is handed the true first pose.
+TEST(PoseGraph, PlMapBuildWithGpsPlacesTheDriveWithoutGroundTruth) {
   TempDir dir;
   auto sim = pl::test::run(pl::test::tool("pl-sim") + " --route loop --frames 150 --out " + (dir / "drive"));
   ASSERT_EQ(sim.exit_code, 0) << sim.output;
@@ -295,8 +298,8 @@ TEST(PoseGraph, PlMapBuildWithGpsBeatsLidarOdometryAlone) {
   const auto ape_lidar = ape(dir / "lidar.txt"), ape_gps = ape(dir / "gps.txt");
   EXPECT_EQ(ape_gps["matched"].get<int>(), 150);
   const double lidar_mean = ape_lidar["mean"].get<double>(), gps_mean = ape_gps["mean"].get<double>();
-  EXPECT_LT(gps_mean, lidar_mean);
-  EXPECT_LT(gps_mean, 0.15);
+  EXPECT_LT(gps_mean, 0.05);
+  EXPECT_LT(gps_mean, 2.0 * lidar_mean);
 
   const auto report = nlohmann::json::parse(pl::test::read_file(dir / "report.json"));
   const auto& pg = report.at("pose_graph");
@@ -304,7 +307,8 @@ TEST(PoseGraph, PlMapBuildWithGpsBeatsLidarOdometryAlone) {
   EXPECT_GT(pg.at("gps_edges").get<int>(), 100);
   EXPECT_LT(pg.at("gps_outliers").get<int>(), pg.at("gps_edges").get<int>() / 2);
   EXPECT_EQ(pg.at("termination").get<std::string>(), "CONVERGENCE");
-  EXPECT_NEAR(report.at("mean_error_before_m").get<double>(), lidar_mean, 1e-4);
+  // The report's "before" is the odometry as if started at the first true pose: the --poses lidar run.
+  EXPECT_NEAR(report.at("mean_error_before_m").get<double>(), lidar_mean, 2e-3);
   EXPECT_NEAR(report.at("mean_error_after_m").get<double>(), gps_mean, 1e-4);
 
   // --gps only corrects odometry; and the fixes need a geographic reference.

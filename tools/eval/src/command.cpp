@@ -1,5 +1,7 @@
 #include "pl/eval/command.hpp"
 
+#include <algorithm>
+
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -196,8 +198,15 @@ int run_map(const Args& args, std::ostream& out) {
   if (!(options.coverage_radius > 0.0))
     throw Error("--coverage-radius takes a distance in metres above 0, e.g. --coverage-radius 0.5");
 
-  const Cloud map = read_cloud(map_path);
-  const Cloud ref = read_cloud(ref_path);
+  // Non-finite points (NaN rows are common in PCD files) carry no position: dropped.
+  auto finite_only = [](Cloud c) {
+    c.intensity.clear();  // not used here; it would no longer line up
+    c.points.erase(std::remove_if(c.points.begin(), c.points.end(), [](const Eigen::Vector3d& p) { return !p.allFinite(); }),
+                   c.points.end());
+    return c;
+  };
+  const Cloud map = finite_only(read_cloud(map_path));
+  const Cloud ref = finite_only(read_cloud(ref_path));
   if (map.points.empty()) throw Error(map_path + ": the map cloud has no points");
   if (ref.points.empty()) throw Error(ref_path + ": the reference cloud has no points");
   check_same_origin(map, map_path, ref, ref_path);

@@ -1,5 +1,7 @@
 #include "pl/eval/topview.hpp"
 
+#include "pl/eval/stats.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -36,10 +38,10 @@ CellMap bin_cells(const Points3d& points, double cell) {
   return cells;
 }
 
+// The nearest-rank percentile (stats.hpp) of unsorted values, p in [0, 1].
 double value_at_rank(std::vector<double> v, double p) {
   std::sort(v.begin(), v.end());
-  const auto k = static_cast<std::size_t>(std::floor(p * static_cast<double>(v.size() - 1) + 0.5));
-  return v[std::min(k, v.size() - 1)];
+  return percentile_nearest_rank(v, 100.0 * p);
 }
 
 std::string metres(double v) {
@@ -53,7 +55,9 @@ std::string metres(double v) {
 std::pair<std::string, std::string> parse_track_argument(const std::string& argument) {
   namespace fs = std::filesystem;
   std::string path = argument, label;
-  const auto colon = argument.rfind(':');
+  // FILE:LABEL splits at the first ':' (a label may hold colons); a file whose name holds one is
+  // taken whole when it exists.
+  const auto colon = argument.find(':');
   std::error_code ec;
   if (!fs::is_regular_file(argument, ec) && colon != std::string::npos) {
     path = argument.substr(0, colon);

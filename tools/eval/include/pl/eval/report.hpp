@@ -29,8 +29,8 @@ nlohmann::ordered_json timing_json(const TimingColumn& c, const TimingStats& s, 
 std::string timing_text(const TimingColumn& c, const TimingStats& s, const Histogram& h, const std::string& path);
 
 // Keys: map, reference, map_points, reference_points, origin ({lat, lon, alt} or null), within_m,
-// share_within, shares [{distance_m, points, share}], mean, median, rmse, p90, p95, p99, max,
-// reference_spacing_m, coverage_radius_m, reference_coverage.
+// share_within, shares [{distance_m, points, share}], mean, median, rmse, p90, p95, p99, max, metric,
+// surface_points, reference_spacing_m, coverage_radius_m, reference_coverage.
 nlohmann::ordered_json map_json(const MapAccuracy& r, const std::string& map_path, const std::string& reference_path,
                                 const std::optional<GeoPoint>& origin);
 std::string map_text(const MapAccuracy& r, const std::string& map_path, const std::string& reference_path,
