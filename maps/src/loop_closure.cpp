@@ -159,6 +159,8 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
         proposals.push_back({best_j, true, best.distance, guess});
       }
     }
+    if (proposals.empty()) continue;
+    const std::vector<Eigen::Vector3f> source = thin(clouds[i], cfg.source_voxel_m);  // the query, for every proposal
     for (const Proposal& p : proposals) {
       (p.by_descriptor ? rep.proposed_by_descriptor : rep.proposed_by_position)++;
       const auto t0 = std::chrono::steady_clock::now();
@@ -170,7 +172,6 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
       const std::vector<client::MapTile> tiles = local_map(estimate, path, clouds, p.match, cfg);
       client::RoiMap fine(kTileSize, Eigen::Vector3d::Zero(), roi_cfg);
       fine.update(tiles);
-      const std::vector<Eigen::Vector3f> source = thin(clouds[i], cfg.source_voxel_m);
       client::IcpResult r;
       bool registered = false;
       if (!p.by_descriptor) {

@@ -13,7 +13,9 @@
 namespace pl::eval {
 namespace {
 
+using test::expect_usage_errors;
 using test::run;
+using test::UsageCase;
 using test::RunResult;
 using test::TempDir;
 
@@ -220,11 +222,7 @@ TEST(EvalCli, BadInputsExitWithTwo) {
   const std::string exe = test::pl_eval_exe();
   test::write_text(dir.file("est.tum"), "0.0 1 2 3 0 0 0 1\n0.1 1 2 3 0 0 0 1\n");
 
-  struct Case {
-    std::vector<std::string> args;
-    std::string expected;
-  };
-  const std::vector<Case> cases = {
+  const std::vector<UsageCase> cases = {
       {{exe, "ape", "--est", dir.file("est.txt"), "--gt", dir.file("gt.txt"), "--bogus", "1"},
        "unknown option --bogus"},
       {{exe, "ape", "--est", dir.file("est.txt"), "--gt"}, "--gt needs a value"},
@@ -238,14 +236,7 @@ TEST(EvalCli, BadInputsExitWithTwo) {
       {{exe, "frobnicate"}, "unknown command"},
       {{exe}, "missing command"},
   };
-  for (const auto& c : cases) {
-    const RunResult r = run(c.args, dir);
-    std::string cmd;
-    for (const auto& a : c.args) cmd += a + " ";
-    EXPECT_EQ(r.exit_code, 2) << cmd;
-    EXPECT_NE(r.err.find("pl-eval: error: "), std::string::npos) << cmd << "\n" << r.err;
-    EXPECT_NE(r.err.find(c.expected), std::string::npos) << cmd << "\n" << r.err;
-  }
+  expect_usage_errors(cases, dir);
 }
 
 TEST(EvalCli, HelpPrintsUsage) {

@@ -114,6 +114,24 @@ inline std::string pl_eval_exe() {
   return std::string(bin && *bin ? bin : PL_BINARY_DIR "/bin") + "/pl-eval";
 }
 
+// A command line that must be refused, and the text its error message must hold.
+struct UsageCase {
+  std::vector<std::string> args;
+  std::string expected;
+};
+
+// Each case exits with code 2 and "pl-eval: error: ..." naming `expected` on stderr.
+inline void expect_usage_errors(const std::vector<UsageCase>& cases, const TempDir& dir) {
+  for (const auto& c : cases) {
+    const RunResult r = run(c.args, dir);
+    std::string cmd;
+    for (const auto& a : c.args) cmd += a + " ";
+    EXPECT_EQ(r.exit_code, 2) << cmd;
+    EXPECT_NE(r.err.find("pl-eval: error: "), std::string::npos) << cmd << "\n" << r.err;
+    EXPECT_NE(r.err.find(c.expected), std::string::npos) << cmd << "\n" << r.err;
+  }
+}
+
 inline bool starts_with(const std::string& s, const std::string& prefix) { return s.rfind(prefix, 0) == 0; }
 
 inline std::size_t count_of(const std::string& s, const std::string& needle) {

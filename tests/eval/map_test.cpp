@@ -16,7 +16,9 @@
 namespace pl::eval {
 namespace {
 
+using test::expect_usage_errors;
 using test::run;
+using test::UsageCase;
 using test::RunResult;
 using test::TempDir;
 
@@ -248,11 +250,7 @@ TEST(EvalMapCli, BadInputNamesTheProblem) {
   write_pcd(dir.file("other.pcd"), ref, std::vector<float>(ref.size(), 0.f), GeoPoint{48.0, 11.5, 520.0});
   write_pcd(dir.file("empty.pcd"), {}, {});
   const std::string exe = test::pl_eval_exe();
-  struct Case {
-    std::vector<std::string> args;
-    std::string expected;
-  };
-  const std::vector<Case> cases = {
+  const std::vector<UsageCase> cases = {
       {{exe, "map", "--map", dir.file("other.pcd"), "--ref", dir.file("ref.pcd")}, "records the geodetic origin"},
       {{exe, "map", "--map", dir.file("nope.pcd"), "--ref", dir.file("ref.pcd")}, "nope.pcd"},
       {{exe, "map", "--map", dir.file("empty.pcd"), "--ref", dir.file("ref.pcd")}, "empty.pcd: the map cloud has no points"},
@@ -261,14 +259,7 @@ TEST(EvalMapCli, BadInputNamesTheProblem) {
       {{exe, "map", "--map", dir.file("ref.pcd")}, "missing --ref"},
       {{exe, "map", "--map", dir.file("ref.pcd"), "--ref", dir.file("ref.pcd"), "--cell", "1"}, "unknown option --cell"},
   };
-  for (const auto& c : cases) {
-    const RunResult r = run(c.args, dir);
-    std::string cmd;
-    for (const auto& a : c.args) cmd += a + " ";
-    EXPECT_EQ(r.exit_code, 2) << cmd;
-    EXPECT_NE(r.err.find("pl-eval: error: "), std::string::npos) << cmd << "\n" << r.err;
-    EXPECT_NE(r.err.find(c.expected), std::string::npos) << cmd << "\n" << r.err;
-  }
+  expect_usage_errors(cases, dir);
   // The origin message names both files and both origins.
   const RunResult r = run({exe, "map", "--map", dir.file("other.pcd"), "--ref", dir.file("ref.pcd")}, dir);
   EXPECT_NE(r.err.find(dir.file("other.pcd")), std::string::npos) << r.err;

@@ -17,7 +17,9 @@ namespace {
 
 using test::count_of;
 using test::read_text;
+using test::expect_usage_errors;
 using test::run;
+using test::UsageCase;
 using test::RunResult;
 using test::TempDir;
 
@@ -161,11 +163,7 @@ TEST(EvalTopviewCli, BadInputNamesTheProblem) {
   write_pcd(dir.file("map.pcd"), cloud, std::vector<float>(cloud.size(), 0.3f));
   test::write_text(dir.file("bad.txt"), "1 0 0 0 0 1 0 0 0 0 1\n");
   const std::string exe = test::pl_eval_exe();
-  struct Case {
-    std::vector<std::string> args;
-    std::string expected;
-  };
-  const std::vector<Case> cases = {
+  const std::vector<UsageCase> cases = {
       {{exe, "topview", "--cloud", dir.file("map.pcd")}, "missing --out"},
       {{exe, "topview", "--out", dir.file("t.svg")}, "missing --cloud"},
       {{exe, "topview", "--cloud", dir.file("map.pcd"), "--out", dir.file("t.svg"), "--cell", "0"}, "--cell takes"},
@@ -177,14 +175,7 @@ TEST(EvalTopviewCli, BadInputNamesTheProblem) {
       {{exe, "topview", "--cloud", dir.file("map.pcd"), "--out", dir.file("no/such/dir/t.svg")}, "cannot write"},
       {{exe, "topview", "--cloud", dir.file("missing.pcd"), "--out", dir.file("t.svg")}, "missing.pcd"},
   };
-  for (const auto& c : cases) {
-    const RunResult r = run(c.args, dir);
-    std::string cmd;
-    for (const auto& a : c.args) cmd += a + " ";
-    EXPECT_EQ(r.exit_code, 2) << cmd;
-    EXPECT_NE(r.err.find("pl-eval: error: "), std::string::npos) << cmd << "\n" << r.err;
-    EXPECT_NE(r.err.find(c.expected), std::string::npos) << cmd << "\n" << r.err;
-  }
+  expect_usage_errors(cases, dir);
 }
 
 }  // namespace

@@ -77,6 +77,23 @@ double mean_error(const PoseList& a, const PoseList& b) {
   return sum / static_cast<double>(a.size());
 }
 
+// The keyframe of the first half of the drive nearest (truly) to keyframe `k`: its revisit.
+std::size_t nearest_on_first_half(const PoseList& truth, const std::vector<std::size_t>& kf, std::size_t k) {
+  std::size_t match = 0;
+  for (std::size_t j = 0; j < kf.size() / 2; ++j)
+    if ((truth[kf[j]].translation() - truth[kf[k]].translation()).norm() <
+        (truth[kf[match]].translation() - truth[kf[k]].translation()).norm())
+      match = j;
+  return match;
+}
+
+// A loop edge as tight as close_loops makes one: 5 mm, 0.005 deg.
+Information6 tight_information() {
+  Information6 info = Information6::Identity() * 4e4;
+  info.bottomRightCorner<3, 3>() *= 3e3;
+  return info;
+}
+
 }  // namespace
 
 TEST(PlaceDescriptor, SamePlaceTurnedMatchesWithItsHeadingAnotherPlaceDoesNot) {
@@ -106,13 +123,8 @@ TEST(PoseGraph, ALoopEdgeTakesOutTheDriftAroundTheLoop) {
   const auto& kf = graph.keyframes();
   // The revisit: the last keyframe against the one nearest it on the first lap.
   const std::size_t last = kf.size() - 1;
-  std::size_t match = 0;
-  for (std::size_t k = 0; k < kf.size() / 2; ++k)
-    if ((truth[kf[k]].translation() - truth[kf[last]].translation()).norm() <
-        (truth[kf[match]].translation() - truth[kf[last]].translation()).norm())
-      match = k;
-  Information6 info = Information6::Identity() * 4e4;  // 5 mm
-  info.bottomRightCorner<3, 3>() *= 3e3;              // 0.005 deg
+  const std::size_t match = nearest_on_first_half(truth, kf, last);
+  const Information6 info = tight_information();
   graph.add_loop(match, last, truth[kf[match]].inverse() * truth[kf[last]], info);
   graph.optimize();
   const double before = mean_error(odo, truth), after = mean_error(graph.poses(), truth);
@@ -141,13 +153,8 @@ TEST(PoseGraph, GpsCostTellsATrueLoopFromAFalseOneAndSaveRestoreUndoesATrial) {
   graph.optimize();
   const auto& kf = graph.keyframes();
   const std::size_t last = kf.size() - 1;
-  std::size_t match = 0;
-  for (std::size_t k = 0; k < kf.size() / 2; ++k)
-    if ((truth[kf[k]].translation() - truth[kf[last]].translation()).norm() <
-        (truth[kf[match]].translation() - truth[kf[last]].translation()).norm())
-      match = k;
-  Information6 tight = Information6::Identity() * 4e4;
-  tight.bottomRightCorner<3, 3>() *= 3e3;
+  const std::size_t match = nearest_on_first_half(truth, kf, last);
+  const Information6 tight = tight_information();
   const pl::Pose truth_rel = truth[kf[match]].inverse() * truth[kf[last]];
   const double base = graph.gps_cost();
   const std::vector<double> saved = graph.save();
