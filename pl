@@ -4,6 +4,7 @@
 #   ./pl test    install what is missing, build Debug with ASan+UBSan, run every test
 #   ./pl bench   install what is missing, build Release, run every benchmark in bench/
 #   ./pl build   install what is missing and build Release only
+#   ./pl fuzz [TARGET...] [--seconds N]   build the libFuzzer targets (clang) and run each N s (60)
 set -euo pipefail
 
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -13,7 +14,7 @@ JOBS=${PL_JOBS:-$(nproc 2>/dev/null || echo 2)}
 say() { printf '\033[1m==> %s\033[0m\n' "$*" >&2; }
 
 usage() {
-  sed -n '2,7s/^# \{0,1\}//p' "$0"
+  sed -n '2,8s/^# \{0,1\}//p' "$0"
   exit "${1:-0}"
 }
 
@@ -69,6 +70,30 @@ cmd_test() {
   export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}
   export PL_NO_PROGRESS=1
   ctest --test-dir build/asan --output-on-failure -j "$JOBS"
+  say "fuzzing every input parser for 30 s each"
+  build_fuzz
+  bash tests/fuzz/run.sh build/fuzz/bin 30
+}
+
+build_fuzz() {
+  ensure_packages deploy/debian-packages.txt deploy/fuzz-packages.txt
+  build build/fuzz -DCMAKE_BUILD_TYPE=Debug -DPL_FUZZ=ON -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++
+}
+
+cmd_fuzz() {
+  local seconds=60 targets=()
+  while [[ $# -gt 0 ]]; do
+    case "$1" in
+      --seconds)
+        [[ $# -ge 2 && "$2" =~ ^[0-9]+$ && "$2" -gt 0 ]] || { echo "--seconds takes a whole number of seconds, e.g. --seconds 600" >&2; exit 2; }
+        seconds=$2
+        shift 2 ;;
+      -*) echo "unknown option $1 (./pl fuzz [TARGET...] [--seconds N])" >&2; exit 2 ;;
+      *) targets+=("$1"); shift ;;
+    esac
+  done
+  build_fuzz
+  bash tests/fuzz/run.sh build/fuzz/bin "$seconds" "${targets[@]}"
 }
 
 cmd_bench() {
@@ -82,6 +107,7 @@ case "${1:-}" in
   test) cmd_test ;;
   bench) cmd_bench ;;
   build) ensure_packages && build_release ;;
+  fuzz) shift; cmd_fuzz "$@" ;;
   -h | --help | help) usage 0 ;;
   *) usage 2 ;;
 esac

@@ -16,7 +16,8 @@ const char* kUsage =
     "\n"
     "Serves the maps of a pl-map store: manifests, Draco tiles, region-of-interest queries and map\n"
     "uploads (bearer tokens of the upload role), plus /healthz, /readyz and /metrics.\n"
-    "  --listen HOST:PORT     address to listen on; port 0 picks a free one (printed at start)\n"
+    "  --listen HOST:PORT     address or host name to listen on (127.0.0.1:8080, localhost:8080,\n"
+    "                         [::1]:8080, 0.0.0.0:8080); port 0 picks a free one (printed at start)\n"
     "  --threads N            worker threads (default: the cores)\n"
     "  --tokens FILE          lines of \"ROLE TOKEN\" (read, upload or admin) added to the store, hashed\n"
     "  --read-token-required  reading maps needs a token too\n"
@@ -41,11 +42,15 @@ int body(int argc, char** argv) {
   cfg.access_log = !args.has("--quiet");
   args.finish();
   if (!args.positional().empty()) throw pl::Error("unexpected argument \"" + args.positional()[0] + "\" (see --help)");
+  // HOST:PORT with HOST an IPv4 address, a name, or an IPv6 address in brackets ([::1]:8080).
   auto colon = listen.rfind(':');
   long long port = -1;
-  if (colon == std::string::npos || !pl::parse_int(listen.substr(colon + 1), port) || port < 0 || port > 65535)
-    throw pl::Error("--listen takes HOST:PORT, e.g. 127.0.0.1:8080, got \"" + listen + "\"");
-  cfg.host = listen.substr(0, colon);
+  std::string host = colon == std::string::npos ? "" : listen.substr(0, colon);
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  else if (host.find(':') != std::string::npos) host.clear();  // an IPv6 address needs its brackets
+  if (host.empty() || !pl::parse_int(listen.substr(colon + 1), port) || port < 0 || port > 65535)
+    throw pl::Error("--listen takes HOST:PORT (127.0.0.1:8080, localhost:8080, [::1]:8080, 0.0.0.0:8080), got \"" + listen + "\"");
+  cfg.host = host;
   cfg.port = static_cast<std::uint16_t>(port);
   if (cfg.threads < 1 || cfg.threads > 256) throw pl::Error("--threads takes 1 to 256");
   if (!pl::file_exists(cfg.api.db)) throw pl::Error(cfg.api.db + ": no such map store (create one with pl-map tile)");
@@ -64,8 +69,11 @@ int body(int argc, char** argv) {
     std::fprintf(stderr, "pl-server: %zu tokens from %s\n", n, tokens->c_str());
   }
   pl::server::Server server(cfg);
-  std::printf("pl-server: listening on http://%s:%u (%d threads, map store %s)\n", cfg.host.c_str(), server.port(), cfg.threads,
-              cfg.api.db.c_str());
+  std::string where;
+  for (const auto& a : server.addresses()) where += (where.empty() ? "" : ", ") + a;
+  const bool v6 = cfg.host.find(':') != std::string::npos;
+  std::printf("pl-server: listening on http://%s:%u (%s; %d threads, map store %s)\n", (v6 ? "[" + cfg.host + "]" : cfg.host).c_str(),
+              server.port(), where.c_str(), cfg.threads, cfg.api.db.c_str());
   std::fflush(stdout);
   server.run();
   std::printf("pl-server: stopped\n");

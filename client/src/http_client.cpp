@@ -6,6 +6,7 @@
 #include <boost/beast/http.hpp>
 #include <chrono>
 
+#include "http_response.hpp"
 #include "pl/common/error.hpp"
 
 namespace beast = boost::beast;
@@ -38,7 +39,30 @@ struct HttpClient::Impl {
   bool connected = false;
 };
 
-HttpClient::HttpClient(const std::string& base, double timeout_s) : impl_(std::make_unique<Impl>()), timeout_s_(timeout_s) {
+void limit_response_parser(ResponseParser& parser, std::size_t max_body_bytes) {
+  parser.header_limit(8 * 1024);
+  parser.body_limit(max_body_bytes);
+}
+
+void admit_response_body(const ResponseParser& parser, std::size_t max_body_bytes, beast::error_code& ec) {
+  const auto length = parser.content_length();
+  ec = length && *length > max_body_bytes ? beast::error_code(http::error::body_limit) : beast::error_code();
+}
+
+HttpResponse to_http_response(http::response<http::string_body>&& res) {
+  HttpResponse out;
+  out.status = static_cast<int>(res.result_int());
+  out.body = std::move(res.body());
+  for (const auto& f : res) {
+    std::string name(f.name_string());
+    for (auto& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    out.headers[name] = std::string(f.value());
+  }
+  return out;
+}
+
+HttpClient::HttpClient(const std::string& base, double timeout_s, std::size_t max_body_bytes)
+    : impl_(std::make_unique<Impl>()), timeout_s_(timeout_s), max_body_(max_body_bytes) {
   std::string rest = base;
   if (rest.rfind("http://", 0) == 0)
     rest = rest.substr(7);
@@ -79,19 +103,18 @@ HttpResponse HttpClient::request(const std::string& method, const std::string& t
       req.prepare_payload();
       impl_->stream.expires_after(timeout);
       run_one(impl_->ioc, [&](auto done) { http::async_write(impl_->stream, req, done); });
-      http::response_parser<http::string_body> parser;
-      parser.body_limit(1ull << 30);
-      run_one(impl_->ioc, [&](auto done) { http::async_read(impl_->stream, impl_->buffer, parser, done); });
-      auto res = parser.release();
-      HttpResponse out;
-      out.status = static_cast<int>(res.result_int());
-      out.body = std::move(res.body());
-      for (const auto& f : res) {
-        std::string name(f.name_string());
-        for (auto& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-        out.headers[name] = std::string(f.value());
-      }
-      if (!res.keep_alive()) {
+      ResponseParser parser;
+      limit_response_parser(parser, max_body_);
+      if (req.method() == http::verb::head) parser.skip(true);  // Content-Length, but no body follows
+      run_one(impl_->ioc, [&](auto done) { http::async_read_header(impl_->stream, impl_->buffer, parser, done); });
+      beast::error_code admitted;
+      admit_response_body(parser, max_body_, admitted);
+      if (admitted) throw beast::system_error(admitted);
+      if (!parser.is_done())
+        run_one(impl_->ioc, [&](auto done) { http::async_read(impl_->stream, impl_->buffer, parser, done); });
+      const bool keep_alive = parser.get().keep_alive();
+      HttpResponse out = to_http_response(parser.release());
+      if (!keep_alive) {
         beast::error_code ec;
         impl_->stream.socket().shutdown(tcp::socket::shutdown_both, ec);
         impl_->stream.close();
@@ -99,7 +122,6 @@ HttpResponse HttpClient::request(const std::string& method, const std::string& t
       }
       return out;
     } catch (const std::exception& e) {
-      beast::error_code ec;
       impl_->stream.close();
       impl_->connected = false;
       impl_->buffer.clear();

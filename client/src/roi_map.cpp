@@ -102,7 +102,7 @@ struct RoiMap::Table {
 };
 
 RoiMap::RoiMap(double tile_size, const Eigen::Vector3d& anchor, const RoiMapConfig& cfg)
-    : tile_size_(tile_size), table_(std::make_unique<Table>()) {
+    : table_(std::make_unique<Table>()) {
   if (!(tile_size > 0)) throw Error("ROI map: tile size must be positive, got " + std::to_string(tile_size));
   if (!(cfg.cell_m > 0)) throw Error("ROI map: cell_m must be positive, got " + std::to_string(cfg.cell_m));
   const double per_tile = std::max(1.0, std::round(tile_size / cfg.cell_m));

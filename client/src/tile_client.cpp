@@ -22,7 +22,6 @@
 #include <functional>
 #include <map>
 #include <mutex>
-#include <nlohmann/json.hpp>
 #include <random>
 #include <set>
 #include <thread>
@@ -32,11 +31,11 @@
 #include "pl/client/tile_cache.hpp"
 #include "pl/common/error.hpp"
 #include "pl/schema/store.hpp"
+#include "wire.hpp"
 
 namespace pl::client {
 
 using Clock = std::chrono::steady_clock;
-using nlohmann::json;
 
 std::size_t decoded_size(const TileCloud& c) { return 24 * c.points.size() + 12 * c.normals.size() + 4 * c.intensity.size(); }
 
@@ -61,16 +60,6 @@ bool touches(const TileBounds& b, const Eigen::Vector2d& c, double r) {
 double box_distance(const TileBounds& b, const Eigen::Vector2d& c) {
   double dx = std::max({b.min_x - c.x(), 0.0, c.x() - b.max_x}), dy = std::max({b.min_y - c.y(), 0.0, c.y() - b.max_y});
   return std::sqrt(dx * dx + dy * dy);
-}
-
-bool is_hash(const std::string& s) {
-  return s.size() == 64 && std::all_of(s.begin(), s.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
-}
-
-bool valid_map_name(const std::string& name) {
-  return !name.empty() && name.size() <= 64 && std::all_of(name.begin(), name.end(), [](char c) {
-    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '-';
-  });
 }
 
 // Doubles in URLs: exact round trip, so the server tests the very disc the client reasons about.
@@ -210,12 +199,7 @@ struct TileClient::Impl {
       succeeded();
       return res;
     }
-    std::string said;
-    json j = json::parse(res.body, nullptr, false);
-    if (j.is_object() && j.contains("error") && j["error"].is_string())
-      said = j["error"].get<std::string>();
-    else
-      said = res.body.substr(0, 200);
+    const std::string said = wire::error_text(res.body);
     std::string what = about + ": " + cfg.server + " answered HTTP " + std::to_string(res.status) + (said.empty() ? "" : " \"" + said + "\"");
     if (res.status == 401) what += ": set TileClientConfig::token to a token with the read role";
     if (res.status == 403) what += ": the token needs the read role";
@@ -271,6 +255,9 @@ struct TileClient::Impl {
 
   // Makes `m` the pinned version: its manifest, and the index from the disk cache.
   void adopt(const CachedManifest& m) {
+    if (!wire::valid_tile_size(m.tile_size))  // (a manifest from the disk cache is checked here too)
+      throw Error("map " + m.map + " version " + std::to_string(m.version) + ": tile size " + std::to_string(m.tile_size) +
+                  " m is not between 1 and 1000 m: delete the disk cache " + cfg.cache_path);
     TileGrid g(m.tile_size);  // throws for a bad tile size before anything changes
     std::vector<CachedTile> rows;
     if (cache) {
@@ -331,23 +318,11 @@ struct TileClient::Impl {
         std::string about = "the manifest of map " + cfg.map;
         HttpResponse res = get("/v1/maps/" + url_encode(cfg.map), about, "check TileClientConfig::map");
         CachedManifest m;
-        m.map = cfg.map;
         try {
-          json j = json::parse(res.body);
-          m.tile_size = j.at("tile_size").get<double>();
-          m.voxel_size = j.value("voxel_size", 0.0);
-          const json& o = j.at("origin");
-          m.origin = GeoPoint{o.at("lat").get<double>(), o.at("lon").get<double>(), o.value("alt", 0.0)};
-          if (pin)
-            m.version = *pin;
-          else if (j.at("current_version").is_null())
-            failed(about + ": the map has no published version yet: publish one (pl-map publish) or set TileClientConfig::version");
-          else
-            m.version = j.at("current_version").get<long long>();
-        } catch (const json::exception& e) {
-          failed(about + ": the answer is not the manifest JSON of schema/openapi.yaml (" + e.what() + ")");
+          m = wire::parse_manifest(res.body, cfg.map, pin);
+        } catch (const wire::WireError& e) {
+          failed(about + ": " + e.what() + " (see the manifest in schema/openapi.yaml)");
         }
-        if (!(m.tile_size > 0 && std::isfinite(m.tile_size))) failed(about + ": the manifest's tile_size is not a positive number");
         adopt(m);
         return true;
       } catch (const RequestFailed&) {
@@ -472,17 +447,28 @@ struct TileClient::Impl {
   // ---------------------------------------------------------------------------------------------
   // Actions
 
-  // Decodes verified bytes and keeps the tile, making room. Returns whether it was kept.
-  bool keep(const CachedTile& t, const std::string& bytes, const Plan& plan, std::size_t rank, bool from_disk) {
+  // A tile whose bytes match its hash but do not decode: left out (until the version changes).
+  void undecodable(const CachedTile& t, const std::string& why) {
+    broken.insert(t.hash);
+    problem("tile " + key_name(t.key) + " of map " + cfg.map + " version " + std::to_string(manifest.version) + " (" + t.hash +
+            ") does not decode (" + why + "): left out of the map; rebuild the tile and publish a new version");
+  }
+
+  // Decodes bytes already checked against their hash (the disk cache checks on read), then keeps the tile.
+  bool keep_bytes(const CachedTile& t, const std::string& bytes, const Plan& plan, std::size_t rank, bool from_disk) {
     std::shared_ptr<const TileCloud> cloud;
     try {
       cloud = std::make_shared<const TileCloud>(decode_tile(bytes));
     } catch (const Error& e) {
-      broken.insert(t.hash);
-      problem("tile " + key_name(t.key) + " of map " + cfg.map + " version " + std::to_string(manifest.version) + " (" + t.hash +
-              ") does not decode (" + e.what() + "): left out of the map; rebuild the tile and publish a new version");
+      undecodable(t, e.what());
       return false;
     }
+    return keep(t, std::move(cloud), bytes.size(), plan, rank, from_disk);
+  }
+
+  // Keeps a decoded tile, making room. Returns whether it was kept.
+  bool keep(const CachedTile& t, std::shared_ptr<const TileCloud> cloud, std::size_t bytes, const Plan& plan, std::size_t rank,
+            bool from_disk) {
     std::size_t size = decoded_size(*cloud);
     std::lock_guard<std::mutex> lock(mu);
     auto it = index.find(t.key);
@@ -491,7 +477,7 @@ struct TileClient::Impl {
       blocked_gen = plan.gen;
       return false;
     }
-    memory[t.key] = Slot{MapTile{t.key, t.hash, std::move(cloud), bytes.size()}, size, ++tick};
+    memory[t.key] = Slot{MapTile{t.key, t.hash, std::move(cloud), bytes}, size, ++tick};
     memory_bytes += size;
     if (from_disk) ++st.from_disk;
     changed.notify_all();
@@ -511,17 +497,24 @@ struct TileClient::Impl {
       }
       throw;
     }
-    std::string got = store::content_hash(res.body);
-    if (got != t.hash)
-      failed(about + ": the server sent " + std::to_string(res.body.size()) + " bytes whose SHA-256 is " + got +
-             " (a proxy altering responses, or a damaged store?)");
+    // The bytes are checked against the hash before anything else looks at them, then decoded;
+    // only a tile that decodes is cached on disk.
+    std::shared_ptr<const TileCloud> cloud;
+    try {
+      cloud = std::make_shared<const TileCloud>(wire::verified_tile(res.body, t.hash));
+    } catch (const wire::WireError& e) {
+      failed(about + ": " + e.what());
+    } catch (const Error& e) {
+      undecodable(t, e.what());
+      return;
+    }
     {
       std::lock_guard<std::mutex> lock(mu);
       ++st.fetched;
     }
     disk_write([&] { cache->put_blob(t.hash, res.body); });
     if (cache) not_on_disk.erase(t.hash);
-    keep(t, res.body, plan, rank, false);
+    keep(t, std::move(cloud), res.body.size(), plan, rank, false);
   }
 
   void roi(const Query& q) {
@@ -538,23 +531,11 @@ struct TileClient::Impl {
     std::vector<CachedTile> rows;
     std::set<TileKey> answered;
     try {
-      json j = json::parse(res.body);
-      if (j.at("version").get<long long>() != version) failed(about + ": the server answered for version " + j.at("version").dump());
-      if (j.at("tile_size").get<double>() != manifest.tile_size)
-        failed(about + ": the server's tile size is " + j.at("tile_size").dump() + " m, the pinned version's " + number(manifest.tile_size) +
-               " m (was the map store rebuilt? delete the disk cache)");
-      for (const json& t : j.at("tiles")) {
-        CachedTile c;
-        c.key = TileKey{t.at("tx").get<std::int32_t>(), t.at("ty").get<std::int32_t>()};
-        c.hash = t.at("hash").get<std::string>();
-        c.points = t.value("points", 0LL);
-        if (!is_hash(c.hash)) failed(about + ": tile " + key_name(c.key) + " has no valid hash");
-        answered.insert(c.key);
-        rows.push_back(std::move(c));
-      }
-    } catch (const json::exception& e) {
-      failed(about + ": the answer is not the ROI JSON of schema/openapi.yaml (" + e.what() + ")");
+      rows = wire::parse_roi(res.body, version, manifest.tile_size);
+    } catch (const wire::WireError& e) {
+      failed(about + ": " + e.what() + " (see the ROI answer in schema/openapi.yaml)");
     }
+    for (const auto& r : rows) answered.insert(r.key);
     // Keys of the disc that the answer leaves out and the index does not know hold no tile (have=
     // only leaves out tiles the index knows). Just inside the disc: clear of rounding at its edge.
     for (const TileKey& k : grid->keys_in_disc(q.disc.center.x(), q.disc.center.y(), std::max(0.0, q.disc.radius - 0.01)))
@@ -593,7 +574,7 @@ struct TileClient::Impl {
       }
       if (cache && !not_on_disk.count(t.hash)) {
         if (auto bytes = disk_blob(t)) {
-          keep(t, *bytes, plan, rank, true);
+          keep_bytes(t, *bytes, plan, rank, true);
           o.did = true;
           return o;
         }
@@ -678,7 +659,7 @@ TileClient::TileClient(TileClientConfig cfg) {
   auto need = [](bool ok, const std::string& what) {
     if (!ok) throw Error("TileClientConfig: " + what);
   };
-  need(valid_map_name(cfg.map), "map must be a map name ([A-Za-z0-9_.-], 1 to 64 characters), got \"" + cfg.map + "\"");
+  need(wire::valid_map_name(cfg.map), "map must be a map name ([A-Za-z0-9_.-], 1 to 64 characters), got \"" + cfg.map + "\"");
   need(!cfg.version || *cfg.version >= 1, "version must be 1 or more (or left empty for the map's current version)");
   need(cfg.memory_mb > 0 && std::isfinite(cfg.memory_mb), "memory_mb must be a positive number of MiB");
   need(cfg.radius_m >= 0 && cfg.radius_m <= kMaxRadius, "radius_m must be between 0 and " + number(kMaxRadius) + " m");

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <ctime>
 #include <filesystem>
 #include <map>
@@ -50,8 +51,11 @@ Eigen::Vector3d Dataset::to_world(const GeoPoint& p) const {
 bool parse_kitti_timestamp(const std::string& text, double& seconds) {
   int y, mo, d, h, mi;
   double s;
-  if (std::sscanf(text.c_str(), "%d-%d-%d %d:%d:%lf", &y, &mo, &d, &h, &mi, &s) != 6) return false;
-  if (mo < 1 || mo > 12 || d < 1 || d > 31 || h < 0 || h > 23 || mi < 0 || mi > 59 || s < 0 || s >= 61) return false;
+  // Field widths keep every number within int (sscanf's %d on more digits is undefined), and the
+  // year within 4 digits keeps the day count below from overflowing.
+  if (std::sscanf(text.c_str(), "%4d-%2d-%2d %2d:%2d:%lf", &y, &mo, &d, &h, &mi, &s) != 6) return false;
+  if (y < 0 || mo < 1 || mo > 12 || d < 1 || d > 31 || h < 0 || h > 23 || mi < 0 || mi > 59) return false;
+  if (!(s >= 0 && s < 61)) return false;  // also refuses "nan" seconds
   // Days from the civil date (proleptic Gregorian), so runs across midnight or month ends stay monotonic.
   y -= mo <= 2;
   long era = (y >= 0 ? y : y - 399) / 400;
@@ -83,19 +87,45 @@ void list_scans(const std::string& folder, Dataset& ds) {
                 (compressed ? std::string(" (the scans are .xz-compressed: expand them with ../shared/data/unpack.sh DEST)") : ""));
   }
   std::sort(found.begin(), found.end());
+  // 42.bin and 000042.bin would both be frame 42: one time, one pose, one OXTS record for two scans.
+  for (std::size_t i = 1; i < found.size(); ++i)
+    if (found[i].first == found[i - 1].first)
+      throw Error(found[i - 1].second + " and " + found[i].second + " are both frame " + std::to_string(found[i].first) +
+                  ": keep one scan per frame number");
   for (auto& [id, path] : found) {
     ds.frame_ids.push_back(id);
     ds.scan_paths.push_back(std::move(path));
   }
 }
 
-// Every line of a file as numbers (the line index is the frame number).
-std::vector<std::vector<double>> read_number_lines(const std::string& path, std::size_t count, const std::string& what) {
+// Every line of a file as `count` numbers (the line index is the frame number), row after row in one
+// array: a vector per line would cost some 50 bytes of memory for every 2-byte line of times.txt.
+struct NumberRows {
+  std::vector<double> values;
+  std::size_t count = 0;
+  std::size_t size() const { return values.size() / count; }
+  std::vector<double> row(std::size_t i) const {
+    return std::vector<double>(values.begin() + static_cast<std::ptrdiff_t>(i * count),
+                               values.begin() + static_cast<std::ptrdiff_t>((i + 1) * count));
+  }
+};
+
+NumberRows read_number_lines(const std::string& path, std::size_t count, const std::string& what) {
   LineReader reader(path);
-  std::vector<std::vector<double>> out;
+  NumberRows out;
+  out.count = count;
   std::string line;
-  while (reader.next(line)) out.push_back(parse_numbers(reader, line, count, count, what, " \t\r"));
+  while (reader.next(line)) {
+    const auto v = parse_numbers(reader, line, count, count, what, " \t\r");
+    out.values.insert(out.values.end(), v.begin(), v.end());
+  }
   return out;
+}
+
+// A pose made from a file's numbers: huge values pass the parser but overflow in the conversion.
+void check_finite_pose(const Pose& p, const std::string& where) {
+  if (!p.matrix().allFinite())
+    throw Error(where + " is not finite after the conversion (values out of range?)");
 }
 
 // "KEY: 12 numbers" from a KITTI calibration file.
@@ -160,7 +190,7 @@ void open_odometry_layout(Dataset& ds) {
   if (static_cast<long>(times.size()) <= last)
     throw Error(times_path + ": has " + std::to_string(times.size()) + " lines but scan " + std::to_string(last) +
                 " needs line " + std::to_string(last + 1));
-  for (long id : ds.frame_ids) ds.times.push_back(times[id][0]);
+  for (long id : ds.frame_ids) ds.times.push_back(times.values[static_cast<std::size_t>(id)]);
 
   std::string poses_path = ds.dir + "/poses.txt";
   if (file_exists(poses_path)) {
@@ -175,16 +205,44 @@ void open_odometry_layout(Dataset& ds) {
       auto entry = read_calib_entry(calib_path, "Tr");
       if (!entry) throw Error(calib_path + ": no \"Tr:\" line (the LiDAR-to-cam0 transform, 12 numbers)");
       tr = *entry;
+      check_finite_pose(tr, calib_path + ": the Tr: transform");
       cam0 = true;
     }
     ds.ground_truth.format = PoseFormat::Kitti;
     for (long id : ds.frame_ids) {
-      Pose p = pose_from_kitti_row(rows[id]);
+      Pose p = pose_from_kitti_row(rows.row(static_cast<std::size_t>(id)));
       ds.ground_truth.poses.push_back(cam0 ? Pose(tr.inverse() * p * tr) : p);
+      check_finite_pose(ds.ground_truth.poses.back(), poses_path + ": the pose of frame " + std::to_string(id));
     }
     ds.ground_truth.times = ds.times;
   }
 }
+
+// A number for a message: short, whatever its magnitude.
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.10g", v);
+  return buf;
+}
+
+std::string oxts_path(const Dataset& ds, long id) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "%010ld.txt", id);
+  return ds.dir + "/oxts/data/" + name;
+}
+
+// The values the conversion to poses and fixes relies on: a latitude the Mercator projection can
+// take (at +-90 degrees it is infinite), a longitude, and an accuracy that is a standard deviation.
+void check_oxts_record(const std::vector<double>& o, const std::string& path) {
+  if (!(std::abs(o[0]) < 90.0) || !(std::abs(o[1]) <= 180.0))
+    throw Error(path + ": expected lat in (-90, 90) and lon in [-180, 180] degrees (the first two values), found " +
+                num(o[0]) + " " + num(o[1]));
+  if (o[23] < 0) throw Error(path + ": expected pos_accuracy (value 24) >= 0, found " + num(o[23]));
+}
+
+// The position mode (value 28) as an int: a value that is no mode at all maps to none (-1), rather
+// than through a float-to-int conversion that is undefined out of range.
+int oxts_posmode(double v) { return v >= 0 && v <= 1000 && v == std::floor(v) ? static_cast<int>(v) : -1; }
 
 void open_raw_layout(Dataset& ds) {
   ds.layout = DatasetLayout::KittiRaw;
@@ -230,18 +288,18 @@ void open_raw_layout(Dataset& ds) {
       }
     }
     if (!have_r || !have_t) throw Error(calib_path + ": needs an \"R:\" line (9 numbers) and a \"T:\" line (3 numbers)");
+    check_finite_pose(imu_to_velo, calib_path + ": the IMU-to-LiDAR transform");
   }
 
   std::vector<std::vector<double>> oxts;
   oxts.reserve(n);
-  char name[32];
   for (long id : ds.frame_ids) {
-    std::snprintf(name, sizeof(name), "%010ld.txt", id);
-    std::string path = ds.dir + "/oxts/data/" + name;
+    const std::string path = oxts_path(ds, id);
     if (!file_exists(path)) throw Error(path + ": missing (every scan needs its OXTS record)");
     auto rows = read_number_lines(path, 30, "an OXTS record: lat lon alt roll pitch yaw ... (30 values, see oxts/dataformat.txt)");
     if (rows.size() != 1) throw Error(path + ": expected exactly one line of 30 numbers");
-    oxts.push_back(std::move(rows[0]));
+    check_oxts_record(rows.values, path);
+    oxts.push_back(std::move(rows.values));
   }
 
   double scale = std::cos(oxts[0][0] * M_PI / 180.0);
@@ -252,17 +310,21 @@ void open_raw_layout(Dataset& ds) {
   Pose first_inv = imu_pose(oxts[0]).inverse();
   Pose velo_to_imu = imu_to_velo.inverse();
   ds.ground_truth.format = PoseFormat::Kitti;
-  for (const auto& o : oxts) ds.ground_truth.poses.push_back(imu_to_velo * first_inv * imu_pose(o) * velo_to_imu);
+  for (std::size_t i = 0; i < n; ++i) {
+    ds.ground_truth.poses.push_back(imu_to_velo * first_inv * imu_pose(oxts[i]) * velo_to_imu);
+    check_finite_pose(ds.ground_truth.poses.back(), oxts_path(ds, ds.frame_ids[i]) + ": the pose of this record");
+  }
   ds.ground_truth.times = ds.times;
 
   ds.projection.kind = WorldProjection::Kind::KittiMercator;
   ds.projection.origin = {oxts[0][0], oxts[0][1], oxts[0][2]};
   ds.projection.mercator_scale = scale;
   ds.projection.world_from_projected = imu_to_velo * first_inv;
+  check_finite_pose(ds.projection.world_from_projected, oxts_path(ds, ds.frame_ids[0]) + ": the world frame from this record");
 
   for (std::size_t i = 0; i < n; ++i) {
     const auto& o = oxts[i];
-    ds.gps.push_back({ds.times[i], {o[0], o[1], o[2]}, o[23], gps_status_from_oxts(static_cast<int>(o[27]))});
+    ds.gps.push_back({ds.times[i], {o[0], o[1], o[2]}, o[23], gps_status_from_oxts(oxts_posmode(o[27]))});
   }
 
   ds.meta.sensor.vertical_angles_deg = hdl64_vertical_angles_deg();

@@ -1,9 +1,13 @@
 #include "pl/common/meta.hpp"
 
+#include <climits>
+#include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "pl/common/error.hpp"
+#include "pl/common/text.hpp"
 
 namespace pl {
 
@@ -34,6 +38,24 @@ T field(const json& j, const char* key, const std::string& path, const std::stri
   }
 }
 
+// An int field. nlohmann's get<int>() converts a float with static_cast, which is undefined for
+// 1e300: the value is checked to be a whole number that fits first.
+int int_field(const json& j, const char* key, const std::string& path, const std::string& where, int fallback, bool required) {
+  auto it = j.find(key);
+  if (it == j.end()) {
+    if (required) throw Error(path + ": missing \"" + where + key + "\"");
+    return fallback;
+  }
+  double v = 0;
+  if (it->is_number_integer() && !it->is_number_unsigned()) v = static_cast<double>(it->get<std::int64_t>());
+  else if (it->is_number_unsigned()) v = static_cast<double>(it->get<std::uint64_t>());
+  else if (it->is_number_float()) v = it->get<double>();
+  else throw Error(path + ": \"" + where + key + "\" has the wrong type (" + std::string(it->type_name()) + "; expected a whole number)");
+  if (!(v >= INT_MIN && v <= INT_MAX && v == std::floor(v)))
+    throw Error(path + ": \"" + where + key + "\" must be a whole number, found " + printable(it->dump(), 40));
+  return static_cast<int>(v);
+}
+
 }  // namespace
 
 DatasetMeta read_meta(const std::string& path) {
@@ -42,15 +64,17 @@ DatasetMeta read_meta(const std::string& path) {
   json j;
   try {
     j = json::parse(in);
-  } catch (const json::parse_error& e) {
-    throw Error(path + ": not valid JSON: " + e.what());
+  } catch (const json::exception& e) {
+    // Not only parse_error: a number beyond double's range ("1e400") is an out_of_range error. The
+    // message quotes the bytes last read, which may be anything: printable() keeps it one line.
+    throw Error(path + ": not valid JSON: " + printable(e.what(), 300));
   }
   if (!j.is_object()) throw Error(path + ": expected a JSON object at the top level");
   DatasetMeta m;
   if (auto s = j.find("sensor"); s != j.end()) {
     if (!s->is_object()) throw Error(path + ": \"sensor\" must be an object");
     m.sensor.model = field<std::string>(*s, "model", path, "sensor.", m.sensor.model, false);
-    m.sensor.beams = field<int>(*s, "beams", path, "sensor.", 0, true);
+    m.sensor.beams = int_field(*s, "beams", path, "sensor.", 0, true);
     m.sensor.vertical_angles_deg = field<std::vector<double>>(*s, "vertical_angles_deg", path, "sensor.", {}, false);
     m.sensor.point_order = field<std::string>(*s, "point_order", path, "sensor.", m.sensor.point_order, false);
     m.sensor.fov_deg = field<double>(*s, "fov_deg", path, "sensor.", m.sensor.fov_deg, false);

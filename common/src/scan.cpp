@@ -7,6 +7,7 @@
 #include <cstring>
 #include <memory>
 #include <numeric>
+#include <sys/stat.h>
 
 #include "pl/common/error.hpp"
 #include "pl/common/voxel.hpp"
@@ -15,20 +16,48 @@ namespace pl {
 
 static_assert(sizeof(PointXYZI) == 16, "PointXYZI must match the KITTI .bin record");
 
+namespace {
+
+std::string not_whole_points(std::size_t size, const std::string& name) {
+  return name + ": size " + std::to_string(size) +
+         " bytes is not a whole number of points (expected float32 x y z reflectance, 16 bytes a point)";
+}
+
+// Every value of a scan must be a number: a NaN or inf would travel through the crops and the
+// voxel grid into registration.
+void check_finite(const Scan& scan, const std::string& name) {
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const auto& p = scan[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      throw Error(name + ": point " + std::to_string(i) + " has a non-finite coordinate");
+    if (!std::isfinite(p.intensity)) throw Error(name + ": point " + std::to_string(i) + " has a non-finite reflectance");
+  }
+}
+
+}  // namespace
+
+Scan parse_kitti_bin(std::string_view bytes, const std::string& name) {
+  if (bytes.size() % sizeof(PointXYZI) != 0) throw Error(not_whole_points(bytes.size(), name));
+  // The point count comes from the bytes present, so the allocation is exactly what they hold.
+  Scan scan(bytes.size() / sizeof(PointXYZI));
+  if (!scan.empty()) std::memcpy(scan.data(), bytes.data(), bytes.size());
+  check_finite(scan, name);
+  return scan;
+}
+
 Scan read_kitti_bin(const std::string& path) {
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
   if (!f) throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
-  std::fseek(f.get(), 0, SEEK_END);
-  long size = std::ftell(f.get());
-  std::fseek(f.get(), 0, SEEK_SET);
-  if (size < 0 || size % 16 != 0)
-    throw Error(path + ": size " + std::to_string(size) + " bytes is not a whole number of points (expected float32 x y z reflectance, 16 bytes a point)");
-  Scan scan(static_cast<std::size_t>(size / 16));
-  if (!scan.empty() && std::fread(scan.data(), 16, scan.size(), f.get()) != scan.size())
-    throw Error(path + ": read failed");
-  for (const auto& p : scan)
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-      throw Error(path + ": point " + std::to_string(&p - scan.data()) + " has a non-finite coordinate");
+  // The size of a regular file is the bytes present (a folder's "size" is not), and reading straight
+  // into the scan saves a copy of every scan the localizer loads.
+  struct stat st {};
+  if (::fstat(::fileno(f.get()), &st) != 0 || !S_ISREG(st.st_mode)) throw Error(path + ": not a regular file");
+  const auto size = static_cast<std::size_t>(st.st_size);
+  if (size % sizeof(PointXYZI) != 0) throw Error(not_whole_points(size, path));
+  Scan scan(size / sizeof(PointXYZI));
+  if (!scan.empty() && std::fread(scan.data(), sizeof(PointXYZI), scan.size(), f.get()) != scan.size())
+    throw Error(path + ": read failed (" + (std::ferror(f.get()) ? std::strerror(errno) : "the file got shorter") + ")");
+  check_finite(scan, path);
   return scan;
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <charconv>
 #include <cstdlib>
+#include <cstdint>
 #include <cstring>
 #include <sys/stat.h>
 
@@ -13,6 +14,8 @@ namespace pl {
 
 LineReader::LineReader(const std::string& path) : path_(path), in_(path) {
   if (!in_) throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
+  // A folder opens like an empty file on Linux and would read as one: say what it is instead.
+  if (dir_exists(path)) throw Error(path + ": is a folder, expected a text file");
 }
 
 bool LineReader::next(std::string& line) {
@@ -72,6 +75,61 @@ std::vector<double> parse_numbers(const LineReader& reader, const std::string& l
     if (!parse_double(fields[i], values[i])) reader.fail(expected() + "; field " + std::to_string(i + 1) + " is not a number", line);
   }
   return values;
+}
+
+std::string valid_utf8(std::string_view s) {
+  std::string out;
+  out.reserve(s.size());
+  const auto* p = reinterpret_cast<const unsigned char*>(s.data());
+  const std::size_t n = s.size();
+  std::size_t i = 0;
+  while (i < n) {
+    const unsigned char c = p[i];
+    std::size_t len = 0;
+    std::uint32_t cp = 0, min = 0;
+    if (c < 0x80) {
+      out += static_cast<char>(c);
+      ++i;
+      continue;
+    }
+    if ((c & 0xE0) == 0xC0) len = 2, cp = c & 0x1F, min = 0x80;
+    else if ((c & 0xF0) == 0xE0) len = 3, cp = c & 0x0F, min = 0x800;
+    else if ((c & 0xF8) == 0xF0) len = 4, cp = c & 0x07, min = 0x10000;
+    bool ok = len > 0 && i + len <= n;
+    for (std::size_t k = 1; ok && k < len; ++k) {
+      if ((p[i + k] & 0xC0) != 0x80) ok = false;
+      else cp = (cp << 6) | (p[i + k] & 0x3F);
+    }
+    ok = ok && cp >= min && cp <= 0x10FFFF && !(cp >= 0xD800 && cp <= 0xDFFF);
+    if (ok) {
+      out.append(s.data() + i, len);
+      i += len;
+    } else {
+      out += "\xEF\xBF\xBD";  // U+FFFD for the first byte; resynchronise at the next one
+      ++i;
+    }
+  }
+  return out;
+}
+
+std::string printable(std::string_view s, std::size_t max_length) {
+  static const char* hex = "0123456789abcdef";
+  std::string out;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (out.size() >= max_length) {
+      out += "...";
+      break;
+    }
+    const auto c = static_cast<unsigned char>(s[i]);
+    if (c < 0x20 || c >= 0x7F || c == '\\' || c == '"') {
+      out += "\\x";
+      out += hex[c >> 4];
+      out += hex[c & 15];
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  return out;
 }
 
 bool file_exists(const std::string& path) {

@@ -252,15 +252,22 @@ std::unique_ptr<draco::PointCloud> build_point_cloud(const TileCloud& cloud,
 // --- decoding ---------------------------------------------------------------------------------------
 
 // Draco allocates for the point and attribute counts a stream declares before it reads the data: a
-// few corrupted bytes can ask for gigabytes. So the header is walked first (the published bitstream:
-// header, metadata, point count, attribute descriptors) and streams that would decode to more than
-// max(kDecodeFloorBytes, kDecodeExpansion x their size) are refused before Draco sees them. Real
-// tiles expand about 6x (28 bytes a point from 4 to 5); only clouds made mostly of duplicates or of
-// exact lattice points compress further, and encode_tile refuses to write what this would refuse.
-constexpr std::size_t kDecodeFloorBytes = std::size_t{32} << 20;
+// few corrupted bytes can ask for gigabytes. So the stream is walked first (the published bitstream:
+// header, metadata, point count, attribute descriptors, and the k-d tree coder's own counts) and
+// refused before Draco sees it when what Draco would hold to decode it (estimated per point from
+// the descriptors, see check_stream) passes min(kDecodeCapBytes, max(kDecodeFloorBytes,
+// kDecodeExpansion x the stream's size)). Real tiles need about 19x their size (84 bytes a point
+// counted, 4 to 5 bytes a point encoded); only clouds made mostly of duplicates or of exact lattice
+// points compress further, and encode_tile refuses to write what this would refuse. What the walk
+// cannot see (the entropy-coded payload) is bounded by the point count it checked.
+constexpr std::size_t kDecodeFloorBytes = std::size_t{8} << 20;
 constexpr std::size_t kDecodeExpansion = 64;
+// The hard cap per tile, whatever its size: about 3 million points with normals and intensity, some
+// thirty times what a 20 m tile of 0.2 m voxels holds.
+constexpr std::size_t kDecodeCapBytes = std::size_t{256} << 20;
 constexpr int32_t kMaxPoints = int32_t{1} << 24;
 constexpr int kMaxMetadataDepth = 16;
+constexpr uint32_t kMaxKdDimensions = 32;
 
 class Reader {
  public:
@@ -331,8 +338,16 @@ void check_stream(std::string_view bytes) {
   const int v = version(major, minor);
   const int newest =
       version(draco::kDracoPointCloudBitstreamVersionMajor, draco::kDracoPointCloudBitstreamVersionMinor);
-  if (major < 1 || v > newest)
-    invalid("unsupported bitstream version " + std::to_string(major) + "." + std::to_string(minor));
+  // Only the bitstreams of current encoders: 2.2 (Draco 1.3 and 1.4) and 2.3 (1.5, what encode_tile
+  // writes); the k-d tree coder only at 2.3. Draco's decoder also takes the 1.x and early 2.x
+  // layouts, whose k-d tree data declares point counts of its own that Draco sizes buffers by
+  // without checking them against the header (a 49-byte stream could ask for 14 GB).
+  const std::string version_text = std::to_string(major) + "." + std::to_string(minor);
+  if (v < version(2, 2) || v > newest)
+    invalid("bitstream version " + version_text + " is not one this build reads (2.2 to " + std::to_string(newest >> 8) + "." +
+            std::to_string(newest & 255) + "): re-encode the tile with a current Draco");
+  if (method == draco::POINT_CLOUD_KD_TREE_ENCODING && v < version(2, 3))
+    invalid("k-d tree stream of bitstream version " + version_text + " (this build reads the k-d tree coder's 2.3): re-encode the tile");
   if (v >= version(1, 3) && (flags & METADATA_FLAG_MASK)) {
     uint32_t attribute_metadata = 0;
     if (!r.varint(attribute_metadata)) invalid("truncated metadata");
@@ -348,37 +363,77 @@ void check_stream(std::string_view bytes) {
     invalid("point count " + std::to_string(points) + " is out of range (at most " + std::to_string(kMaxPoints) + ")");
   uint8_t decoders = 0;
   if (!r.read(decoders)) invalid("truncated before the attributes");
-  const std::size_t budget = std::max(kDecodeFloorBytes, kDecodeExpansion * bytes.size());
-  std::size_t decoded_bytes = 0;
+  const bool kd_tree = method == draco::POINT_CLOUD_KD_TREE_ENCODING;
+  // Draco's k-d tree encoder writes one attribute decoder; where a second one's data would start is
+  // known only after decoding the first, so its sizes could not be checked here.
+  if (kd_tree && decoders != 1) invalid("k-d tree stream with " + std::to_string(decoders) + " attribute decoders (Draco writes one)");
+  const std::size_t budget = std::min(kDecodeCapBytes, std::max(kDecodeFloorBytes, kDecodeExpansion * bytes.size()));
+  // What Draco holds while decoding, per point: for each attribute and component the attribute
+  // itself, the integer values the entropy decoder produces (4 bytes each, whatever the final type)
+  // and a portable (quantized) copy, counted as 3 x max(type size, 4); for each sequential decoder
+  // its point order (4 bytes).
+  std::size_t per_point = 0, fixed = 0;
+  uint32_t kd_dimensions = 0;
   for (int d = 0; d < decoders; ++d) {
     uint32_t attributes = 0;
-    const bool ok = v < version(2, 0) ? r.read(attributes) : r.varint(attributes);
-    if (!ok) invalid("truncated attribute list");
+    if (!r.varint(attributes)) invalid("truncated attribute list");
     if (attributes == 0 || attributes > r.remaining() / 5)  // a descriptor takes 5 bytes or more
       invalid("attribute count " + std::to_string(attributes) + " does not fit the stream");
     for (uint32_t a = 0; a < attributes; ++a) {
       uint8_t type = 0, data_type = 0, components = 0, normalized = 0;
       uint32_t unique_id = 0;
-      uint16_t old_id = 0;
-      if (!r.read(type) || !r.read(data_type) || !r.read(components) || !r.read(normalized) ||
-          !(v < version(1, 3) ? r.read(old_id) : r.varint(unique_id)))
+      if (!r.read(type) || !r.read(data_type) || !r.read(components) || !r.read(normalized) || !r.varint(unique_id))
         invalid("truncated attribute descriptor");
       if (data_type <= draco::DT_INVALID || data_type >= draco::DT_TYPES_COUNT)
         invalid("attribute data type " + std::to_string(data_type) + " is unknown");
       if (components == 0) invalid("attribute with no components");
-      decoded_bytes += static_cast<std::size_t>(points) * components *
-                       static_cast<std::size_t>(draco::DataTypeLength(static_cast<draco::DataType>(data_type)));
-      if (decoded_bytes > budget)
-        invalid(std::to_string(points) + " points would decode to more than " + std::to_string(budget) +
-                " bytes from " + std::to_string(bytes.size()) + " (refused)");
+      const std::size_t size = static_cast<std::size_t>(draco::DataTypeLength(static_cast<draco::DataType>(data_type)));
+      per_point += 3 * static_cast<std::size_t>(components) * std::max<std::size_t>(size, 4);
+      kd_dimensions += components;
     }
-    if (method == draco::POINT_CLOUD_SEQUENTIAL_ENCODING && !r.skip(attributes))
-      invalid("truncated attribute decoder list");
+    if (!kd_tree) {
+      per_point += 4;
+      if (!r.skip(attributes)) invalid("truncated attribute decoder list");
+    }
   }
+  if (kd_tree) {
+    // The k-d tree decoder's stacks take about 256 D^2 bytes for D components in all, before it
+    // reads a byte of its data; encode_tile's tiles have D <= 7.
+    if (kd_dimensions > kMaxKdDimensions)
+      invalid("k-d tree stream with " + std::to_string(kd_dimensions) + " components (at most " + std::to_string(kMaxKdDimensions) + ")");
+    fixed += 256 * static_cast<std::size_t>(kd_dimensions) * kd_dimensions;
+    // Then its data: compression level, bit length and the point count again, which Draco 1.5.5
+    // loops over before comparing it with the header's.
+    uint8_t level = 0;
+    uint32_t bit_length = 0, kd_points = 0;
+    // (An empty cloud's stream may end before them.)
+    if (r.remaining() >= 9 || points > 0) {
+      if (!r.read(level) || !r.read(bit_length) || !r.read(kd_points)) invalid("truncated k-d tree data");
+      if (level > 6 || bit_length > 32) invalid("k-d tree compression level or bit length out of range");
+      if (kd_points != static_cast<uint32_t>(points))
+        invalid("the k-d tree data declares " + std::to_string(kd_points) + " points, the header " + std::to_string(points));
+    }
+  }
+  const double decoded = static_cast<double>(points) * static_cast<double>(per_point) + static_cast<double>(fixed);
+  if (decoded > static_cast<double>(budget))
+    invalid(std::to_string(points) + " points would need about " + std::to_string(static_cast<long long>(decoded)) +
+            " bytes to decode from " + std::to_string(bytes.size()) + " (at most " + std::to_string(budget) + " allowed: refused)");
 }
+
+std::unique_ptr<draco::PointCloud> draco_decode(std::string_view bytes);
 
 std::unique_ptr<draco::PointCloud> decode_point_cloud(std::string_view bytes) {
   check_stream(bytes);
+  // What check_stream cannot bound (Draco's working memory beyond its estimate) fails as an error,
+  // not an exception that escapes the caller.
+  try {
+    return draco_decode(bytes);
+  } catch (const std::bad_alloc&) {
+    invalid("the decoder ran out of memory (" + std::to_string(bytes.size()) + " bytes)");
+  }
+}
+
+std::unique_ptr<draco::PointCloud> draco_decode(std::string_view bytes) {
   draco::DecoderBuffer buffer;
   buffer.Init(bytes.data(), bytes.size());
   draco::Decoder decoder;
@@ -417,8 +472,15 @@ const draco::PointAttribute* intensity_attribute(const draco::PointCloud& pc) {
   return nullptr;
 }
 
-// Checks that every point maps to a stored value of the attribute.
-void check_mapping(const draco::PointAttribute& att, std::size_t n, const char* what) {
+// Checks that the attribute's values can be read as numbers of the output type and that every
+// point maps to a stored value. Draco reads bool values by loading bytes as bool (undefined for
+// anything but 0 and 1), and float64 values cannot all be narrowed to the float32 of normals and
+// intensities: both are refused where they cannot be read safely.
+void check_mapping(const draco::PointAttribute& att, std::size_t n, const char* what, bool float_output) {
+  if (att.data_type() == draco::DT_BOOL || att.data_type() == draco::DT_INVALID || att.data_type() >= draco::DT_TYPES_COUNT)
+    invalid(std::string(what) + " attribute has data type " + std::to_string(att.data_type()) + ", not a number type");
+  if (float_output && att.data_type() == draco::DT_FLOAT64)
+    invalid(std::string(what) + " attribute is float64 (this reader takes float32 or integer values)");
   const std::size_t stored = att.size();
   const int64_t stride = att.byte_stride();
   const std::size_t value_bytes =
@@ -573,11 +635,14 @@ void read_normals(const draco::PointAttribute& att, std::size_t n, Eigen::Vector
   } else {
     read_values<3>(att, n, out ? out->data() : nullptr, "NORMAL");
   }
+  // Back to unit length, in double (float squares of tiny or huge components underflow or
+  // overflow). A zero-length normal has no direction: refused, as encode_tile refuses to write one.
   for (std::size_t i = 0; i < n; ++i) {
     Eigen::Vector3f& u = out[i];
-    const float sq = u.squaredNorm();
-    if (!std::isfinite(sq)) invalid("normal " + std::to_string(i) + " is not finite");
-    if (std::abs(sq - 1.0f) > 1e-6f && sq > 0) u /= std::sqrt(sq);
+    const double norm = u.cast<double>().norm();
+    if (!std::isfinite(norm)) invalid("normal " + std::to_string(i) + " is not finite");
+    if (!(norm > 1e-6)) invalid("normal " + std::to_string(i) + " has zero length");
+    if (std::abs(norm - 1.0) > 1e-6) u = (u.cast<double>() / norm).cast<float>();
   }
 }
 
@@ -644,9 +709,9 @@ TileCloud decode_tile(std::string_view bytes) {
   const draco::PointAttribute* nrm = vector_attribute(*pc, draco::GeometryAttribute::NORMAL);
   const draco::PointAttribute* inten = intensity_attribute(*pc);
   const std::size_t n = pc->num_points();
-  check_mapping(*pos, n, "POSITION");
-  if (nrm) check_mapping(*nrm, n, "NORMAL");
-  if (inten) check_mapping(*inten, n, "intensity");
+  check_mapping(*pos, n, "POSITION", false);
+  if (nrm) check_mapping(*nrm, n, "NORMAL", true);
+  if (inten) check_mapping(*inten, n, "intensity", true);
   const Eigen::Vector3d origin = tile_origin(*pc);
 
   TileCloud cloud;

@@ -1,10 +1,13 @@
 // Thin RAII helpers over the SQLite C API for the store: prepared statements with bound parameters,
 // and write scopes (BEGIN IMMEDIATE at the top level, a SAVEPOINT inside an open transaction).
-// Every SQLite failure becomes a pl::Error "PATH: WHAT: SQLITE MESSAGE".
+// Every SQLite failure becomes a pl::Error "PATH: WHAT: SQLITE MESSAGE", except that a damaged file
+// (SQLITE_CORRUPT, SQLITE_NOTADB, or SQLITE_TOOBIG for a value the file declares, at any point)
+// gets the one message that names the fix (see damaged()).
 #pragma once
 
 #include <sqlite3.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -12,7 +15,25 @@
 
 namespace pl::store::detail {
 
-// Throws pl::Error "PATH: WHAT: <sqlite's message for the connection's last error>".
+// The largest string or blob a store connection holds or builds (sqlite3_limit SQLITE_LIMIT_LENGTH):
+// four times the largest tile pl-server accepts (64 MiB), so a damaged or crafted row that declares
+// a value of gigabytes is refused before SQLite allocates it.
+constexpr std::size_t kMaxValueBytes = std::size_t{256} << 20;
+
+// The settings of every connection to a store file, which may be damaged or crafted (sqlite_util.cpp
+// says why each is there). Call right after sqlite3_open_v2, before the first read.
+void harden(sqlite3* db, const std::string& path);
+// Lets the file's own SQL use every function and virtual table again, once the schema is known to
+// be the migrations' own: their triggers keep the R*Tree in step, and SQLite 3.40 does not mark the
+// R*Tree innocuous (with trusted_schema off it refuses "unsafe use of virtual table tile_rtree").
+void trust_schema(sqlite3* db, const std::string& path);
+
+// pl::Error "PATH: the map store is damaged (WHAT): restore it from a backup, or rebuild it with
+// pl-map". For every value or structure in the file that breaks what the schema promises.
+[[noreturn]] void damaged(const std::string& path, const std::string& what);
+
+// Throws pl::Error "PATH: WHAT: <sqlite's message for the connection's last error>" (damaged() when
+// that error says the file is damaged).
 [[noreturn]] void fail(sqlite3* db, const std::string& path, const std::string& what);
 
 // Runs SQL without parameters (may hold several statements). Only for fixed SQL text.
@@ -38,6 +59,7 @@ class Stmt {
   void reset();  // ready to step again (bindings stay)
 
   bool is_null(int col) const;
+  int type(int col) const;  // SQLITE_INTEGER, SQLITE_FLOAT, SQLITE_TEXT, SQLITE_BLOB or SQLITE_NULL
   std::int64_t int64(int col) const;
   double real(int col) const;
   std::string text(int col) const;

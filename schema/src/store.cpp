@@ -7,6 +7,9 @@
 
 #include <cmath>
 #include <iterator>
+#include <limits>
+#include <map>
+#include <mutex>
 #include <utility>
 
 #include "pl/common/error.hpp"
@@ -14,6 +17,7 @@
 
 namespace pl::store {
 
+using detail::damaged;
 using detail::exec;
 using detail::fail;
 using detail::Stmt;
@@ -56,29 +60,127 @@ bool valid_map_name(const std::string& name) {
   return true;
 }
 
-VersionState parse_state(const std::string& s, const std::string& path) {
-  if (s == "staged") return VersionState::Staged;
-  if (s == "published") return VersionState::Published;
-  if (s == "retired") return VersionState::Retired;
-  throw Error(path + ": unexpected version state \"" + s + "\" in the database");
+std::string num(std::int64_t v) { return std::to_string(v); }
+
+bool is_hash(const std::string& s) {
+  if (s.size() != 64) return false;
+  for (char c : s)
+    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
+  return true;
 }
 
-std::string num(std::int64_t v) { return std::to_string(v); }
+// "2024-05-01T10:11:12.345Z", as strftime('%Y-%m-%dT%H:%M:%fZ') writes every timestamp.
+bool is_timestamp(const std::string& s) {
+  static const char shape[] = "dddd-dd-ddTdd:dd:dd.dddZ";
+  if (s.size() != sizeof(shape) - 1) return false;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (shape[i] == 'd' ? !(s[i] >= '0' && s[i] <= '9') : s[i] != shape[i]) return false;
+  return true;
+}
+
+// Text from the file for a message: one line of printable ASCII, at most `max` characters.
+std::string plain(const std::string& s, std::size_t max = 160) {
+  std::string out;
+  for (char c : s.substr(0, max)) out += c == '\n' ? std::string("; ") : std::string(1, (c >= 0x20 && c < 0x7F) ? c : '?');
+  return s.size() > max ? out + "..." : out;
+}
+
+// ---- values read from the file -------------------------------------------------------------------
+// SQLite checks neither column types nor CHECK or NOT NULL constraints on the rows it reads, and a
+// damaged or crafted file may hold anything in them. So every value is checked here against what
+// the schema promises before it reaches a caller; one that breaks the promise is a damaged() error
+// naming the table and column (never the value's text, which may be anything).
+
+class Row {
+ public:
+  Row(const Stmt& st, const std::string& path, const char* table) : st_(st), path_(path), table_(table) {}
+
+  std::int64_t integer(int col, const char* column, std::int64_t min = std::numeric_limits<std::int64_t>::min(),
+                       std::int64_t max = std::numeric_limits<std::int64_t>::max()) const {
+    if (st_.type(col) != SQLITE_INTEGER) bad(column, "is not an integer");
+    std::int64_t v = st_.int64(col);
+    if (v < min || v > max) bad(column, "is out of range (" + num(v) + ")");
+    return v;
+  }
+  std::optional<std::int64_t> opt_integer(int col, const char* column, std::int64_t min, std::int64_t max) const {
+    if (st_.is_null(col)) return std::nullopt;
+    return integer(col, column, min, max);
+  }
+  // A finite number in [min, max] (a REAL column reads an integral value as a real).
+  double number(int col, const char* column, double min = -std::numeric_limits<double>::max(),
+                double max = std::numeric_limits<double>::max()) const {
+    int type = st_.type(col);
+    if (type != SQLITE_FLOAT && type != SQLITE_INTEGER) bad(column, "is not a number");
+    double v = st_.real(col);
+    if (!(v >= min && v <= max)) bad(column, "is out of range (" + std::to_string(v) + ")");
+    return v;
+  }
+  double positive(int col, const char* column) const {
+    double v = number(col, column);
+    if (!(v > 0)) bad(column, "is not a positive number (" + std::to_string(v) + ")");
+    return v;
+  }
+  std::string text(int col, const char* column) const {
+    if (st_.type(col) != SQLITE_TEXT) bad(column, "is not text");
+    return st_.text(col);
+  }
+  std::string timestamp(int col, const char* column) const {
+    std::string s = text(col, column);
+    if (!is_timestamp(s)) bad(column, "is not a UTC timestamp (YYYY-MM-DDTHH:MM:SS.sssZ)");
+    return s;
+  }
+  std::string hash(int col, const char* column) const {
+    std::string s = text(col, column);
+    if (!is_hash(s)) bad(column, "is not a SHA-256 hash (64 lowercase hex digits)");
+    return s;
+  }
+  VersionState state(int col, const char* column) const {
+    std::string s = text(col, column);
+    if (s == "staged") return VersionState::Staged;
+    if (s == "published") return VersionState::Published;
+    if (s == "retired") return VersionState::Retired;
+    bad(column, "is not one of staged, published, retired");
+  }
+  // A condition computed by the query itself (0 or 1) that must hold.
+  void require(int col, const std::string& what) const {
+    if (st_.type(col) != SQLITE_INTEGER || st_.int64(col) != 1) damaged(path_, std::string(table_) + ": " + what);
+  }
+  [[noreturn]] void bad(const char* column, const std::string& why) const {
+    damaged(path_, std::string(table_) + "." + column + " " + why);
+  }
+
+ private:
+  const Stmt& st_;
+  const std::string& path_;
+  const char* table_;
+};
+
+constexpr std::int64_t kMaxInt64 = std::numeric_limits<std::int64_t>::max();
+constexpr std::int64_t kMinKey = std::numeric_limits<std::int32_t>::min(), kMaxKey = std::numeric_limits<std::int32_t>::max();
 
 // ---- maps ----------------------------------------------------------------------------------------
 
+// The last column says whether current_version names a published version of the map (the
+// schema's triggers keep it so; a damaged file may point nowhere).
 constexpr const char* kMapColumns =
-    "SELECT id, name, origin_lat, origin_lon, origin_alt, tile_size, voxel_size, current_version, created FROM maps ";
+    "SELECT id, name, origin_lat, origin_lon, origin_alt, tile_size, voxel_size, current_version, created, "
+    "current_version IS NULL OR EXISTS (SELECT 1 FROM versions AS v WHERE v.map_id = maps.id AND "
+    "v.number = maps.current_version AND v.state = 'published') FROM maps ";
 
-MapInfo read_map(const Stmt& st) {
+MapInfo read_map(const Stmt& st, const std::string& path) {
+  Row row(st, path, "maps");
   MapInfo m;
-  m.id = st.int64(0);
-  m.name = st.text(1);
-  m.origin = GeoPoint{st.real(2), st.real(3), st.real(4)};
-  m.tile_size = st.real(5);
-  m.voxel_size = st.real(6);
-  m.current = st.opt_int64(7);
-  m.created = st.text(8);
+  m.id = row.integer(0, "id");
+  m.name = row.text(1, "name");
+  if (!valid_map_name(m.name)) row.bad("name", "is not a valid map name");
+  m.origin = GeoPoint{row.number(2, "origin_lat", -90, 90), row.number(3, "origin_lon", -180, 180),
+                      row.number(4, "origin_alt")};
+  m.tile_size = row.positive(5, "tile_size");
+  m.voxel_size = row.positive(6, "voxel_size");
+  m.current = row.opt_integer(7, "current_version", 1, kMaxInt64);
+  m.created = row.timestamp(8, "created");
+  row.require(9, "map " + m.name + ": current_version " + (m.current ? num(*m.current) : "") +
+                     " is not a published version of the map");
   return m;
 }
 
@@ -87,7 +189,7 @@ std::optional<MapInfo> find_map_row(sqlite3* db, const std::string& path, const 
   Stmt st(db, path, (std::string(kMapColumns) + "WHERE name = ?1").c_str());
   st.bind_text(1, name);
   if (!st.step()) return std::nullopt;
-  return read_map(st);
+  return read_map(st, path);
 }
 
 std::optional<std::int64_t> find_map_id(sqlite3* db, const std::string& path, const std::string& name) {
@@ -107,27 +209,43 @@ std::int64_t require_map(sqlite3* db, const std::string& path, const std::string
 std::optional<std::int64_t> current_version(sqlite3* db, const std::string& path, std::int64_t map_id) {
   Stmt st(db, path, "SELECT current_version FROM maps WHERE id = ?1");
   st.bind_int64(1, map_id);
-  return st.step() ? st.opt_int64(0) : std::nullopt;
+  return st.step() ? Row(st, path, "maps").opt_integer(0, "current_version", 1, kMaxInt64) : std::nullopt;
 }
 
 // ---- versions ------------------------------------------------------------------------------------
 
 // Versions with their tile totals; append "WHERE ..." and the grouping is added by the callers.
+// The totals are total() (a double, exact below 2^53) rather than sum(), which fails with "integer
+// overflow" on absurd counts; column 8 counts the tile rows whose points or bytes are not
+// non-negative integers, column 9 says whether the parent exists.
 constexpr const char* kVersionQuery =
-    "SELECT v.number, v.parent, v.state, v.created, v.note, count(t.id), coalesce(sum(t.points), 0), "
-    "coalesce(sum(t.bytes), 0) FROM versions AS v LEFT JOIN tiles AS t ON t.map_id = v.map_id AND t.version = "
-    "v.number ";
+    "SELECT v.number, v.parent, v.state, v.created, v.note, count(t.id), total(t.points), total(t.bytes), "
+    "coalesce(sum(t.id IS NOT NULL AND (typeof(t.points) IS NOT 'integer' OR t.points < 0 OR "
+    "typeof(t.bytes) IS NOT 'integer' OR t.bytes < 0)), 0), "
+    "v.parent IS NULL OR EXISTS (SELECT 1 FROM versions AS p WHERE p.map_id = v.map_id AND p.number = v.parent) "
+    "FROM versions AS v LEFT JOIN tiles AS t ON t.map_id = v.map_id AND t.version = v.number ";
+
+// A total of non-negative integers computed as a double: exact, and within int64, below 2^53.
+std::int64_t exact_total(const Row& row, int col, const char* column) {
+  constexpr double kExact = 9007199254740992.0;  // 2^53
+  return static_cast<std::int64_t>(row.number(col, column, 0, kExact));
+}
 
 VersionInfo read_version(const Stmt& st, const std::string& path) {
+  Row row(st, path, "versions");
   VersionInfo v;
-  v.number = st.int64(0);
-  v.parent = st.opt_int64(1);
-  v.state = parse_state(st.text(2), path);
-  v.created = st.text(3);
-  v.note = st.text(4);
-  v.tiles = st.int64(5);
-  v.points = st.int64(6);
-  v.bytes = st.int64(7);
+  v.number = row.integer(0, "number", 1, kMaxInt64);
+  v.parent = row.opt_integer(1, "parent", 1, kMaxInt64);
+  v.state = row.state(2, "state");
+  v.created = row.timestamp(3, "created");
+  v.note = row.text(4, "note");
+  Row tiles(st, path, "tiles");
+  if (st.int64(8) != 0) tiles.bad("points", "or tiles.bytes is not a non-negative integer");
+  v.tiles = tiles.integer(5, "(count)", 0, kMaxInt64);
+  v.points = exact_total(tiles, 6, "points (total)");
+  v.bytes = exact_total(tiles, 7, "bytes (total)");
+  row.require(9, "version " + num(v.number) + " has parent " + (v.parent ? num(*v.parent) : "") +
+                     ", which does not exist");
   return v;
 }
 
@@ -144,7 +262,7 @@ std::optional<VersionState> version_state(sqlite3* db, const std::string& path, 
   Stmt st(db, path, "SELECT state FROM versions WHERE map_id = ?1 AND number = ?2");
   st.bind_int64(1, map_id).bind_int64(2, number);
   if (!st.step()) return std::nullopt;
-  return parse_state(st.text(0), path);
+  return Row(st, path, "versions").state(0, "state");
 }
 
 VersionState require_version(sqlite3* db, const std::string& path, const std::string& map, std::int64_t map_id,
@@ -169,18 +287,21 @@ constexpr const char* kTileColumns =
     "SELECT t.tx, t.ty, t.hash, t.points, t.bytes, t.min_x, t.min_y, t.min_z, t.max_x, t.max_y, t.max_z "
     "FROM tiles AS t ";
 
-TileRecord read_tile(const Stmt& st) {
+TileRecord read_tile(const Stmt& st, const std::string& path) {
+  Row row(st, path, "tiles");
   TileRecord r;
-  r.key = TileKey{static_cast<std::int32_t>(st.int64(0)), static_cast<std::int32_t>(st.int64(1))};
-  r.hash = st.text(2);
-  r.points = st.int64(3);
-  r.bytes = st.int64(4);
-  r.min_x = st.real(5);
-  r.min_y = st.real(6);
-  r.min_z = st.real(7);
-  r.max_x = st.real(8);
-  r.max_y = st.real(9);
-  r.max_z = st.real(10);
+  r.key = TileKey{static_cast<std::int32_t>(row.integer(0, "tx", kMinKey, kMaxKey)),
+                  static_cast<std::int32_t>(row.integer(1, "ty", kMinKey, kMaxKey))};
+  r.hash = row.hash(2, "hash");
+  r.points = row.integer(3, "points", 0, kMaxInt64);
+  r.bytes = row.integer(4, "bytes", 0, kMaxInt64);
+  r.min_x = row.number(5, "min_x");
+  r.min_y = row.number(6, "min_y");
+  r.min_z = row.number(7, "min_z");
+  r.max_x = row.number(8, "max_x");
+  r.max_y = row.number(9, "max_y");
+  r.max_z = row.number(10, "max_z");
+  if (!(r.min_x <= r.max_x && r.min_y <= r.max_y && r.min_z <= r.max_z)) row.bad("min_x", "and the other bounds have min > max");
   return r;
 }
 
@@ -189,7 +310,7 @@ std::optional<std::string> tile_hash(sqlite3* db, const std::string& path, std::
   Stmt st(db, path, "SELECT hash FROM tiles WHERE map_id = ?1 AND version = ?2 AND tx = ?3 AND ty = ?4");
   st.bind_int64(1, map_id).bind_int64(2, version).bind_int64(3, key.tx).bind_int64(4, key.ty);
   if (!st.step()) return std::nullopt;
-  return st.text(0);
+  return Row(st, path, "tiles").hash(0, "hash");
 }
 
 // Deletes a blob that no tile uses any more.
@@ -209,6 +330,183 @@ std::string hex(const unsigned char* p, std::size_t n) {
 }
 
 // ---- opening and migrating -----------------------------------------------------------------------
+
+// The schema objects of a database (sqlite_schema): (type, name) -> SQL text, "" for the objects
+// SQLite makes itself.
+using Schema = std::map<std::pair<std::string, std::string>, std::string>;
+
+// SQLite's own tables (sqlite_sequence, ...), automatic indexes and the R*Tree's shadow tables: made
+// by SQLite with text that may differ between SQLite versions, so only their presence is compared.
+bool made_by_sqlite(const std::string& name) {
+  return name.rfind("sqlite_", 0) == 0 || name.rfind("tile_rtree_", 0) == 0;
+}
+
+Schema read_schema(sqlite3* db, const std::string& path) {
+  Schema out;
+  Stmt st(db, path, "SELECT type, name, sql FROM sqlite_schema");
+  while (st.step()) {
+    std::string name = st.text(1);
+    out[{st.text(0), name}] = made_by_sqlite(name) ? "" : st.text(2);
+  }
+  return out;
+}
+
+// The schema that migrations 1..version make, built once per version in a private in-memory database.
+const Schema& expected_schema(int version) {
+  static std::mutex mutex;
+  static std::map<int, Schema> built;
+  std::lock_guard<std::mutex> lock(mutex);
+  auto it = built.find(version);
+  if (it != built.end()) return it->second;
+  const std::string path = "(the schema of version " + num(version) + ")";
+  sqlite3* db = nullptr;
+  if (sqlite3_open(":memory:", &db) != SQLITE_OK) {
+    sqlite3_close(db);
+    throw Error("map store: cannot open an in-memory SQLite database (out of memory?)");
+  }
+  try {
+    for (const Migration& m : kMigrations)
+      if (m.number <= version) exec(db, path, m.sql);
+    it = built.emplace(version, read_schema(db, path)).first;
+  } catch (...) {
+    sqlite3_close(db);
+    throw;
+  }
+  sqlite3_close(db);
+  return it->second;
+}
+
+// Refuses a file whose schema is not exactly the migrations' own for its schema version: a crafted
+// file could otherwise keep a trigger that runs on the store's writes, a view or virtual table in
+// place of a table, or a table without the CHECK constraints the store relies on. Released
+// migrations are never edited, so the text SQLite keeps is byte for byte the migration's.
+// ANALYZE's statistics tables are allowed too (an administrator may run it; they only steer plans).
+void check_schema(sqlite3* db, const std::string& path, int version) {
+  const Schema& want = expected_schema(version);
+  const Schema have = read_schema(db, path);
+  const std::string head = "its schema is not the one of map store schema version " + num(version) + ": ";
+  for (const auto& [key, sql] : want) {
+    auto it = have.find(key);
+    if (it == have.end()) damaged(path, head + key.first + " " + key.second + " is missing");
+    if (it->second != sql) damaged(path, head + key.first + " " + key.second + " is not defined as this software defines it");
+  }
+  for (const auto& [key, sql] : have) {
+    bool statistics = key.first == "table" && (key.second == "sqlite_stat1" || key.second == "sqlite_stat4");
+    if (!want.count(key) && !statistics) damaged(path, head + "it has an unknown " + plain(key.first) + " " + plain(key.second));
+  }
+}
+
+// One read transaction: the values open checks come from one snapshot, even while another
+// connection migrates the file. Ends (COMMIT) when done, else rolls back.
+class ReadSnapshot {
+ public:
+  ReadSnapshot(sqlite3* db, const std::string& path) : db_(db), path_(path) { exec(db_, path_, "BEGIN"); }
+  ~ReadSnapshot() {
+    if (open_) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+  }
+  ReadSnapshot(const ReadSnapshot&) = delete;
+  ReadSnapshot& operator=(const ReadSnapshot&) = delete;
+  void end() {
+    open_ = false;
+    exec(db_, path_, "COMMIT");
+  }
+
+ private:
+  sqlite3* db_;
+  const std::string& path_;
+  bool open_ = true;
+};
+
+struct Header {
+  std::int64_t app_id = 0, user_version = 0, objects = 0;
+};
+
+// Errors on the first read that mean SQLite cannot use the file's header or schema: "unsupported
+// file format" (a format number no SQLite writes) and a schema that does not parse are plain
+// SQLITE_ERRORs, and SQLite answers some damaged schemas with SQLITE_NOMEM. (Not: BUSY and LOCKED,
+// another connection at work; IOERR and CANTOPEN, the disk.)
+bool unusable_file(int rc) {
+  int primary = rc & 0xFF;
+  return primary == SQLITE_ERROR || primary == SQLITE_NOMEM || primary == SQLITE_CORRUPT || primary == SQLITE_TOOBIG ||
+         primary == SQLITE_FORMAT || primary == SQLITE_RANGE || primary == SQLITE_MISMATCH;
+}
+
+// The first read of the file: this is where a file that is not SQLite shows.
+Header read_header(sqlite3* db, const std::string& path) {
+  Header h;
+  sqlite3_stmt* st = nullptr;
+  int rc = sqlite3_prepare_v2(db,
+                              "SELECT a.application_id, u.user_version, (SELECT count(*) FROM sqlite_schema) "
+                              "FROM pragma_application_id AS a, pragma_user_version AS u",
+                              -1, &st, nullptr);
+  if (rc == SQLITE_OK) rc = sqlite3_step(st);
+  if (rc == SQLITE_ROW) {
+    h.app_id = sqlite3_column_int64(st, 0);
+    h.user_version = sqlite3_column_int64(st, 1);
+    h.objects = sqlite3_column_int64(st, 2);
+  }
+  sqlite3_finalize(st);
+  if ((rc & 0xFF) == SQLITE_NOTADB)
+    throw Error(path + ": not a SQLite database (" + sqlite3_errmsg(db) + "); is this the right file?");
+  if (rc != SQLITE_ROW && unusable_file(rc))
+    damaged(path, std::string(sqlite3_errmsg(db)) +
+                      ((rc & 0xFF) == SQLITE_NOMEM ? ", which SQLite also reports for some damaged files" : ""));
+  if (rc != SQLITE_ROW) fail(db, path, "reading the database header");
+  // SQLite opens a file whose header has a write version above 2 read-only (the file itself was
+  // found writable before this first read).
+  if (sqlite3_db_readonly(db, "main") == 1)
+    damaged(path, "its header says SQLite may only read it (a file format write version other than 1 or 2)");
+  return h;
+}
+
+void check_header(const Header& h, const std::string& path) {
+  const std::int64_t latest = Store::latest_schema_version();
+  if (h.app_id != 0 && h.app_id != kApplicationId)
+    throw Error(path + ": a SQLite database of another application (application_id " + num(h.app_id) +
+                "), not a map store");
+  if (h.user_version > latest)
+    throw Error(path + ": the map store has schema version " + num(h.user_version) + ", newer than this build knows (" +
+                num(latest) + "): upgrade the PointLocalization software");
+  if (h.user_version < 0) damaged(path, "negative schema version " + num(h.user_version));
+  if (h.user_version == 0 && h.objects > 0)
+    throw Error(path + ": a SQLite database that is not a map store (it has tables but no schema version)");
+  if (h.user_version > 0 && h.app_id != kApplicationId)
+    throw Error(path + ": a SQLite database that is not a map store (application_id " + num(h.app_id) + ")");
+}
+
+// PRAGMA quick_check: every page and record of the file is well formed (not the indexes' content).
+void quick_check(sqlite3* db, const std::string& path) {
+  Stmt st(db, path, "PRAGMA quick_check");
+  std::string first = st.step() ? st.text(0) : "no answer";
+  if (first != "ok") damaged(path, "quick_check: " + plain(first));
+}
+
+std::string journal_mode(sqlite3* db, const std::string& path) {
+  Stmt st(db, path, "PRAGMA journal_mode");
+  return st.step() ? st.text(0) : "";
+}
+
+// Everything open checks before it writes anything (the switch to WAL, migrations), so that a file
+// that fails a check is left exactly as it was. Opening a current WAL store writes nothing at all;
+// when open will write, the whole file is checked first (PRAGMA quick_check reads every page: once
+// per file, when it is migrated or switched to WAL, e.g. a restored backup).
+void check_before_writing(sqlite3* db, const std::string& path, bool create) {
+  ReadSnapshot snapshot(db, path);
+  const Header h = read_header(db, path);
+  check_header(h, path);
+  if (h.user_version == 0 && h.objects == 0) {
+    // An empty database: nothing in it to check or to lose. Without `create` it was expected to be a
+    // store, and an empty file is most likely one that lost its content.
+    if (!create)
+      throw Error(path + ": the file is empty, not a map store (was it truncated?): restore it from a backup, or create "
+                         "a store with pl-map");
+    snapshot.end();
+    return;
+  }
+  check_schema(db, path, static_cast<int>(h.user_version));
+  if (journal_mode(db, path) != "wal" || h.user_version < Store::latest_schema_version()) quick_check(db, path);
+  snapshot.end();
+}
 
 void migrate(sqlite3* db, const std::string& path) {
   const int latest = Store::latest_schema_version();
@@ -315,40 +613,11 @@ Store Store::open(const std::string& path, bool create) {
   }
   sqlite3_extended_result_codes(db, 1);
   sqlite3_busy_timeout(db, kBusyTimeoutMs);
+  detail::harden(db, path);
   if (sqlite3_db_readonly(db, "main") == 1)
     throw Error(path + ": the map store is read-only (check the permissions of the file and its folder)");
-
-  // The first read of the file: this is where a file that is not SQLite shows. One statement, so
-  // the three values come from one snapshot (another connection may be migrating right now).
-  std::int64_t app_id = 0, user_version = 0, tables = 0;
-  {
-    sqlite3_stmt* st = nullptr;
-    rc = sqlite3_prepare_v2(db,
-                            "SELECT a.application_id, u.user_version, "
-                            "(SELECT count(*) FROM sqlite_schema WHERE type = 'table') "
-                            "FROM pragma_application_id AS a, pragma_user_version AS u",
-                            -1, &st, nullptr);
-    if (rc == SQLITE_OK) rc = sqlite3_step(st);
-    if (rc == SQLITE_ROW) {
-      app_id = sqlite3_column_int64(st, 0);
-      user_version = sqlite3_column_int64(st, 1);
-      tables = sqlite3_column_int64(st, 2);
-    }
-    sqlite3_finalize(st);
-    if ((rc & 0xFF) == SQLITE_NOTADB)
-      throw Error(path + ": not a SQLite database (" + sqlite3_errmsg(db) + "); is this the right file?");
-    if (rc != SQLITE_ROW) fail(db, path, "reading the database header");
-  }
-  if (app_id != 0 && app_id != kApplicationId)
-    throw Error(path + ": a SQLite database of another application (application_id " + num(app_id) +
-                "), not a map store");
-  if (user_version > latest_schema_version())
-    throw Error(path + ": the map store has schema version " + num(user_version) + ", newer than this build knows (" +
-                num(latest_schema_version()) + "): upgrade the PointLocalization software");
-  if (user_version == 0 && tables > 0)
-    throw Error(path + ": a SQLite database that is not a map store (it has tables but no schema version)");
-  if (user_version > 0 && app_id != kApplicationId)
-    throw Error(path + ": a SQLite database that is not a map store (application_id " + num(app_id) + ")");
+  check_before_writing(db, path, create);
+  detail::trust_schema(db, path);  // the schema is the migrations' own, or there is none yet
 
   // WAL: readers and one writer at a time, across threads and processes. Persistent in the file.
   {
@@ -405,7 +674,7 @@ std::optional<MapInfo> Store::find_map(const std::string& name) const {
 std::vector<MapInfo> Store::list_maps() const {
   Stmt st(handle(db_, path_), path_, (std::string(kMapColumns) + "ORDER BY name").c_str());
   std::vector<MapInfo> out;
-  while (st.step()) out.push_back(read_map(st));
+  while (st.step()) out.push_back(read_map(st, path_));
   return out;
 }
 
@@ -422,9 +691,9 @@ VersionInfo Store::create_version(const std::string& map, std::optional<std::int
   }
   std::int64_t number = 1;
   {
-    Stmt st(db, path_, "SELECT coalesce(max(number), 0) + 1 FROM versions WHERE map_id = ?1");
+    Stmt st(db, path_, "SELECT max(number) FROM versions WHERE map_id = ?1");
     st.bind_int64(1, map_id);
-    if (st.step()) number = st.int64(0);
+    if (st.step() && !st.is_null(0)) number = Row(st, path_, "versions").integer(0, "number", 1, kMaxInt64 - 1) + 1;
   }
   Stmt(db, path_, "INSERT INTO versions (map_id, number, parent, note) VALUES (?1, ?2, ?3, ?4)")
       .bind_int64(1, map_id)
@@ -507,7 +776,7 @@ std::int64_t Store::rollback(const std::string& map) {
   {
     Stmt st(db, path_, "SELECT replaces FROM versions WHERE map_id = ?1 AND number = ?2");
     st.bind_int64(1, map_id).bind_int64(2, *cur);
-    if (st.step()) prev = st.opt_int64(0);
+    if (st.step()) prev = Row(st, path_, "versions").opt_integer(0, "replaces", 1, kMaxInt64);
   }
   if (!prev)
     throw Error(path_ + ": map " + map + ": version " + num(*cur) +
@@ -541,6 +810,9 @@ TileRecord Store::put_tile(const std::string& map, std::int64_t version, const T
   const std::string where =
       path_ + ": map " + map + " version " + num(version) + " tile (" + num(key.tx) + ", " + num(key.ty) + ")";
   if (draco_bytes.empty()) throw Error(where + ": empty tile data");
+  if (draco_bytes.size() > detail::kMaxValueBytes)
+    throw Error(where + ": " + num(static_cast<std::int64_t>(draco_bytes.size())) +
+                " bytes of tile data, more than the store's limit of " + num(detail::kMaxValueBytes >> 20) + " MiB");
   if (points < 0) throw Error(where + ": negative point count");
   for (double v : {min_x, min_y, min_z, max_x, max_y, max_z})
     if (!std::isfinite(v)) throw Error(where + ": bounds must be finite numbers");
@@ -619,7 +891,7 @@ std::optional<TileRecord> Store::find_tile(const std::string& map, std::int64_t 
           (std::string(kTileColumns) + "WHERE t.map_id = ?1 AND t.version = ?2 AND t.tx = ?3 AND t.ty = ?4").c_str());
   st.bind_int64(1, *map_id).bind_int64(2, version).bind_int64(3, key.tx).bind_int64(4, key.ty);
   if (!st.step()) return std::nullopt;
-  return read_tile(st);
+  return read_tile(st, path_);
 }
 
 std::vector<TileRecord> Store::list_tiles(const std::string& map, std::int64_t version) const {
@@ -630,7 +902,7 @@ std::vector<TileRecord> Store::list_tiles(const std::string& map, std::int64_t v
   Stmt st(db, path_,
           (std::string(kTileColumns) + "WHERE t.map_id = ?1 AND t.version = ?2 ORDER BY t.tx, t.ty").c_str());
   st.bind_int64(1, *map_id).bind_int64(2, version);
-  while (st.step()) out.push_back(read_tile(st));
+  while (st.step()) out.push_back(read_tile(st, path_));
   return out;
 }
 
@@ -657,7 +929,7 @@ std::vector<TileRecord> Store::tiles_in_box(const std::string& map, std::int64_t
       .bind_double(4, min_y)
       .bind_double(5, max_x)
       .bind_double(6, max_y);
-  while (st.step()) out.push_back(read_tile(st));
+  while (st.step()) out.push_back(read_tile(st, path_));
   return out;
 }
 
@@ -665,7 +937,13 @@ std::optional<std::string> Store::blob(const std::string& hash) const {
   Stmt st(handle(db_, path_), path_, "SELECT bytes FROM blobs WHERE hash = ?1");
   st.bind_text(1, hash);
   if (!st.step()) return std::nullopt;
-  return st.blob(0);
+  Row row(st, path_, "blobs");
+  if (st.type(0) != SQLITE_BLOB) row.bad("bytes", "is not a blob");
+  std::string bytes = st.blob(0);
+  // SQLite keeps no checksums of its own: bytes that changed on disk are only caught here, and are
+  // never handed out (the server would serve them as immutable under a hash they do not have).
+  if (content_hash(bytes) != hash) row.bad("bytes", "of blob " + plain(hash) + " do not match its content hash");
+  return bytes;
 }
 
 bool Store::has_blob(const std::string& hash) const {
@@ -702,7 +980,10 @@ std::optional<Role> Store::check_token(const std::string& token) const {
   Stmt st(db, path_, "SELECT role FROM tokens WHERE hash = ?1");
   st.bind_text(1, content_hash(token));
   if (!st.step()) return std::nullopt;
-  return parse_role(st.text(0));
+  Row row(st, path_, "tokens");
+  auto role = parse_role(row.text(0, "role"));
+  if (!role) row.bad("role", "is not one of read, upload, admin");
+  return role;
 }
 
 void Store::log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
@@ -724,14 +1005,15 @@ std::vector<Store::LogEntry> Store::upload_log(const std::string& map) const {
   st.bind_text(1, map);
   std::vector<LogEntry> out;
   while (st.step()) {
+    Row row(st, path_, "upload_log");
     LogEntry e;
-    e.id = st.int64(0);
-    e.at = st.text(1);
-    e.map = st.text(2);
-    e.version = st.opt_int64(3);
-    e.action = st.text(4);
-    e.detail = st.text(5);
-    e.who = st.text(6);
+    e.id = row.integer(0, "id");
+    e.at = row.timestamp(1, "at");
+    e.map = row.text(2, "map");
+    e.version = row.opt_integer(3, "version", std::numeric_limits<std::int64_t>::min(), kMaxInt64);
+    e.action = row.text(4, "action");
+    e.detail = row.text(5, "detail");
+    e.who = row.text(6, "who");
     out.push_back(std::move(e));
   }
   return out;

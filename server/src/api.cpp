@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <deque>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -9,6 +10,8 @@
 #include <shared_mutex>
 #include <sstream>
 #include <unordered_map>
+
+#include <zlib.h>
 
 #include "pl/common/error.hpp"
 #include "pl/common/text.hpp"
@@ -79,16 +82,75 @@ namespace {
 struct HttpError {
   int status;
   std::string message;
+  std::vector<std::pair<std::string, std::string>> headers;
 };
 
-[[noreturn]] void fail(int status, const std::string& message) { throw HttpError{status, message}; }
+// Messages echo what the client sent (targets, names, JSON parser errors): made valid UTF-8 here.
+[[noreturn]] void fail(int status, const std::string& message) { throw HttpError{status, valid_utf8(message), {}}; }
 
 ApiResponse json_response(int status, const json& j, const std::string& route) {
   ApiResponse r;
   r.status = status;
-  r.body = j.dump() + "\n";
+  // `replace`: a string that is not valid UTF-8 (a name read back from a damaged store, say) is
+  // written with U+FFFD instead of making dump() throw.
+  r.body = j.dump(-1, ' ', false, json::error_handler_t::replace) + "\n";
   r.route = route;
   return r;
+}
+
+// The methods of each resource, for 405 answers and OPTIONS.
+constexpr const char* kReadOnly = "GET, HEAD, OPTIONS";
+constexpr const char* kPostOnly = "POST, OPTIONS";
+
+[[noreturn]] void method_not_allowed(const std::string& method, const std::string& route, const char* allow) {
+  throw HttpError{405, valid_utf8(method + " is not allowed on " + route + " (allowed: " + allow + ")"), {{"Allow", allow}}};
+}
+
+// Does an Accept-Encoding header accept gzip? Codings are comma-separated, each with an optional
+// q-value (RFC 9110 12.5.3): "gzip", "gzip;q=0.5" and "*" accept it, "gzip;q=0" refuses it.
+bool accepts_gzip(std::string_view header) {
+  bool star = false, gzip = false, gzip_named = false;
+  for (auto item : split_fields(header, ",")) {
+    auto semi = item.find(';');
+    std::string_view name = item.substr(0, semi);
+    while (!name.empty() && (name.front() == ' ' || name.front() == '\t')) name.remove_prefix(1);
+    while (!name.empty() && (name.back() == ' ' || name.back() == '\t')) name.remove_suffix(1);
+    double q = 1.0;
+    if (semi != std::string_view::npos) {
+      std::string params(item.substr(semi + 1));
+      for (auto& c : params) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      auto at = params.find("q=");
+      double v = 0;
+      if (at != std::string::npos) {
+        std::string_view qs = std::string_view(params).substr(at + 2);
+        qs = qs.substr(0, qs.find_first_of(" ;\t"));
+        q = parse_double(qs, v) ? v : 0.0;
+      }
+    }
+    std::string lower(name);
+    for (auto& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (lower == "gzip" || lower == "x-gzip") gzip_named = true, gzip = gzip || q > 0;
+    if (lower == "*") star = q > 0;
+  }
+  return gzip_named ? gzip : star;
+}
+
+// gzip (RFC 1952) of the bytes, at zlib's fastest level: JSON answers shrink 2-4x at a few
+// microseconds a kilobyte.
+std::string gzip(std::string_view in) {
+  z_stream z{};
+  if (deflateInit2(&z, Z_BEST_SPEED, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK) throw Error("zlib: deflateInit2 failed");
+  std::string out(deflateBound(&z, static_cast<uLong>(in.size())), '\0');
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
+  z.avail_in = static_cast<uInt>(in.size());
+  z.next_out = reinterpret_cast<Bytef*>(out.data());
+  z.avail_out = static_cast<uInt>(out.size());
+  const int rc = deflate(&z, Z_FINISH);
+  const std::size_t written = out.size() - z.avail_out;
+  deflateEnd(&z);
+  if (rc != Z_STREAM_END) throw Error("zlib: deflate failed");
+  out.resize(written);
+  return out;
 }
 
 std::string url_decode(std::string_view s) {
@@ -191,6 +253,29 @@ class BlobCache {
 };
 
 }  // namespace
+
+TileUpload check_tile_upload(std::string_view bytes, double tile_size, const TileKey& key) {
+  TileCloud cloud;
+  try {
+    cloud = decode_tile(bytes);
+  } catch (const Error& e) {
+    throw Error(std::string("the body is not a valid tile: ") + e.what());
+  }
+  if (cloud.points.empty()) throw Error("the tile has no points");
+  TileBounds b = TileGrid(tile_size).bounds_of(key);
+  const double slack = 0.01;  // quantization of positions near the tile's edge
+  Eigen::Vector3d lo = cloud.points.front(), hi = lo;
+  for (const auto& p : cloud.points) {
+    if (!(p.x() >= b.min_x - slack && p.x() <= b.max_x + slack && p.y() >= b.min_y - slack && p.y() <= b.max_y + slack))
+      throw Error("point (" + std::to_string(p.x()) + ", " + std::to_string(p.y()) + ") lies outside tile " + std::to_string(key.tx) +
+                  "/" + std::to_string(key.ty) + " of this map's " + std::to_string(tile_size) + " m grid");
+    lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  }
+  TileUpload up;
+  up.points = cloud.size();
+  for (int c = 0; c < 3; ++c) up.min[c] = lo[c], up.max[c] = hi[c];
+  return up;
+}
 
 // ---------------------------------------------------------------------------------------------
 // The API
@@ -421,24 +506,14 @@ struct Api::Impl {
     auto info = need_staged(req, name, vs);
     TileKey key{parse_tile_index(txs), parse_tile_index(tys)};
     auto m = need_map(name);
-    TileCloud cloud;
+    TileUpload up;
     try {
-      cloud = decode_tile(req.body);
+      up = check_tile_upload(req.body, m.tile_size, key);
     } catch (const Error& e) {
-      fail(422, std::string("the body is not a valid tile: ") + e.what());
+      fail(422, e.what());
     }
-    if (cloud.points.empty()) fail(422, "the tile has no points");
-    TileBounds b = TileGrid(m.tile_size).bounds_of(key);
-    const double slack = 0.01;  // quantization of positions near the tile's edge
-    Eigen::Vector3d lo = cloud.points.front(), hi = lo;
-    for (const auto& p : cloud.points) {
-      if (p.x() < b.min_x - slack || p.x() > b.max_x + slack || p.y() < b.min_y - slack || p.y() > b.max_y + slack)
-        fail(422, "point (" + std::to_string(p.x()) + ", " + std::to_string(p.y()) + ") lies outside tile " + std::to_string(key.tx) +
-                      "/" + std::to_string(key.ty) + " of this map's " + std::to_string(m.tile_size) + " m grid");
-      lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
-    }
-    auto rec = db().put_tile(name, info.number, key, req.body, static_cast<std::int64_t>(cloud.size()), lo.x(), lo.y(), lo.z(), hi.x(),
-                             hi.y(), hi.z());
+    auto rec = db().put_tile(name, info.number, key, req.body, static_cast<std::int64_t>(up.points), up.min[0], up.min[1], up.min[2],
+                             up.max[0], up.max[1], up.max[2]);
     db().log_upload(name, info.number, "put_tile", std::to_string(key.tx) + "/" + std::to_string(key.ty) + " " + rec.hash, "api");
     return json_response(200, {{"tx", key.tx}, {"ty", key.ty}, {"hash", rec.hash}, {"points", rec.points}, {"bytes", rec.bytes}}, route);
   }
@@ -475,58 +550,74 @@ struct Api::Impl {
     return json_response(200, {{"version", info.number}, {"state", "published"}}, "/v1/maps/{map}/versions/{v}/publish");
   }
 
+  // HEAD is GET without the body (the network side drops it); OPTIONS answers 204 with Allow.
   ApiResponse route(const ApiRequest& req, Api& api) {
     Target t = parse_target(req.target);
     const auto& s = t.segments;
     const std::string& m = req.method;
-    auto method_not_allowed = [&](const std::string& route) -> ApiResponse { fail(405, m + " is not allowed on " + route); };
-    if (s.size() == 1 && s[0] == "healthz") return text(200, "ok\n", "/healthz");
-    if (s.size() == 1 && s[0] == "readyz") return api.ready() ? text(200, "ready\n", "/readyz") : text(503, "not ready\n", "/readyz");
-    if (s.size() == 1 && s[0] == "metrics") {
-      ApiResponse r = text(200, metrics.render(db().database_bytes()), "/metrics");
+    const bool get = m == "GET" || m == "HEAD";
+    auto options = [](const char* allow) {
+      ApiResponse r;
+      r.status = 204;
+      r.content_type.clear();
+      r.headers = {{"Allow", allow}};
+      return r;
+    };
+    auto only = [&](bool ok, const std::string& route, const char* allow) {
+      if (m == "OPTIONS") return true;
+      if (!ok) method_not_allowed(m, route, allow);
+      return false;
+    };
+    if (s.size() == 1 && (s[0] == "healthz" || s[0] == "readyz" || s[0] == "metrics")) {
+      const std::string route = "/" + s[0];
+      if (only(get, route, kReadOnly)) return options(kReadOnly);
+      if (s[0] == "healthz") return text(200, "ok\n", route);
+      if (s[0] == "readyz") return api.ready() ? text(200, "ready\n", route) : text(503, "not ready\n", route);
+      ApiResponse r = text(200, metrics.render(db().database_bytes()), route);
       r.content_type = "text/plain; version=0.0.4";
       return r;
     }
     if (s.empty() || s[0] != "v1") fail(404, "no such resource: " + req.target);
     if (s.size() == 3 && s[1] == "blobs") {
-      if (m != "GET" && m != "HEAD") method_not_allowed("/v1/blobs/{hash}");
+      if (only(get, "/v1/blobs/{hash}", kReadOnly)) return options(kReadOnly);
       check_reader(req);
       if (!is_hash(s[2])) fail(400, "a blob is named by its SHA-256 (64 lowercase hex digits)");
       return blob_response(req, s[2], "/v1/blobs/{hash}");
     }
     if (s.size() < 2 || s[1] != "maps") fail(404, "no such resource: " + req.target);
     if (s.size() == 2) {
-      if (m == "GET") return list_maps(req);
-      if (m == "POST") return create_map(req);
-      method_not_allowed("/v1/maps");
+      const char* allow = "GET, HEAD, POST, OPTIONS";
+      if (only(get || m == "POST", "/v1/maps", allow)) return options(allow);
+      return get ? list_maps(req) : create_map(req);
     }
     const std::string& map = s[2];
     if (s.size() == 3) {
-      if (m == "GET") return manifest(req, map);
-      method_not_allowed("/v1/maps/{map}");
+      if (only(get, "/v1/maps/{map}", kReadOnly)) return options(kReadOnly);
+      return manifest(req, map);
     }
     if (s.size() == 4 && s[3] == "roi") {
-      if (m == "GET") return roi(req, map, t);
-      method_not_allowed("/v1/maps/{map}/roi");
+      if (only(get, "/v1/maps/{map}/roi", kReadOnly)) return options(kReadOnly);
+      return roi(req, map, t);
     }
     if (s[3] != "versions") fail(404, "no such resource: " + req.target);
     if (s.size() == 4) {
-      if (m == "POST") return create_version(req, map);
-      method_not_allowed("/v1/maps/{map}/versions");
+      if (only(m == "POST", "/v1/maps/{map}/versions", kPostOnly)) return options(kPostOnly);
+      return create_version(req, map);
     }
     if (s.size() == 6 && s[5] == "publish") {
-      if (m == "POST") return publish(req, map, s[4]);
-      method_not_allowed("/v1/maps/{map}/versions/{v}/publish");
+      if (only(m == "POST", "/v1/maps/{map}/versions/{v}/publish", kPostOnly)) return options(kPostOnly);
+      return publish(req, map, s[4]);
     }
     if (s.size() == 6 && s[5] == "tiles") {
-      if (m == "GET") return list_tiles(req, map, s[4]);
-      method_not_allowed("/v1/maps/{map}/versions/{v}/tiles");
+      if (only(get, "/v1/maps/{map}/versions/{v}/tiles", kReadOnly)) return options(kReadOnly);
+      return list_tiles(req, map, s[4]);
     }
     if (s.size() == 8 && s[5] == "tiles") {
-      if (m == "GET" || m == "HEAD") return get_tile(req, map, s[4], s[6], s[7]);
+      const char* allow = "GET, HEAD, PUT, DELETE, OPTIONS";
+      if (only(get || m == "PUT" || m == "DELETE", "/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}", allow)) return options(allow);
+      if (get) return get_tile(req, map, s[4], s[6], s[7]);
       if (m == "PUT") return put_tile(req, map, s[4], s[6], s[7]);
-      if (m == "DELETE") return delete_tile(req, map, s[4], s[6], s[7]);
-      method_not_allowed("/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}");
+      return delete_tile(req, map, s[4], s[6], s[7]);
     }
     fail(404, "no such resource: " + req.target);
   }
@@ -564,6 +655,8 @@ std::size_t Api::body_limit(const std::string& method, const std::string& target
 }
 
 // The route template of a target, for metrics of requests that failed before reaching a handler.
+constexpr std::size_t kGzipMinBytes = 256;
+
 static std::string route_template(const std::string& target) {
   Target t = parse_target(target);
   const auto& s = t.segments;
@@ -578,12 +671,44 @@ static std::string route_template(const std::string& target) {
 }
 
 ApiResponse Api::handle(const ApiRequest& req) {
+  ApiResponse r;
   try {
-    return impl_->route(req, *this);
-  } catch (const HttpError& e) {
-    return json_response(e.status, {{"error", e.message}, {"status", e.status}}, route_template(req.target));
-  } catch (const std::exception& e) {
-    return json_response(500, {{"error", std::string("internal error: ") + e.what()}, {"status", 500}}, route_template(req.target));
+    try {
+      r = impl_->route(req, *this);
+    } catch (const HttpError& e) {
+      r = json_response(e.status, {{"error", e.message}, {"status", e.status}}, route_template(req.target));
+      r.headers = e.headers;
+      if (e.status == 401)  // RFC 6750: which scheme, and whether a token was sent but refused
+        r.headers.emplace_back("WWW-Authenticate", req.authorization.empty() ? "Bearer realm=\"pl-server\""
+                                                                             : "Bearer realm=\"pl-server\", error=\"invalid_token\"");
+    }
+    // JSON answers: compressed when the client accepts gzip and it pays (a few hundred bytes on).
+    if (r.content_type == "application/json" && !r.blob) {
+      r.headers.emplace_back("Vary", "Accept-Encoding");
+      if (r.body.size() >= kGzipMinBytes && accepts_gzip(req.accept_encoding)) {
+        r.body = gzip(r.body);
+        r.headers.emplace_back("Content-Encoding", "gzip");
+      }
+    }
+    return r;
+  } catch (...) {
+    // Anything unexpected (a store failure, a bug, memory): a 500 for this request only, logged
+    // with the request id; the server goes on serving.
+    std::string what = "unknown exception";
+    try {
+      throw;
+    } catch (const std::exception& e) {
+      what = e.what();
+    } catch (...) {
+    }
+    std::fprintf(stderr, "pl-server: request %s \"%s %s\": internal error: %s\n", printable(req.request_id).c_str(),
+                 printable(req.method).c_str(), printable(req.target).c_str(), printable(what).c_str());
+    std::fflush(stderr);
+    ApiResponse e;
+    e.status = 500;
+    e.body = "{\"error\":\"internal error: see the server log for request " + printable(req.request_id, 64) + "\",\"status\":500}\n";
+    e.route = "other";
+    return e;
   }
 }
 

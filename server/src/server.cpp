@@ -1,12 +1,16 @@
 #include "pl/server/server.hpp"
 
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/ip/v6_only.hpp>
 #include <boost/asio/signal_set.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <boost/asio/strand.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
+#include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <random>
 #include <fcntl.h>
 #include <filesystem>
 #include <fstream>
@@ -24,6 +28,8 @@
 #include <vector>
 
 #include "pl/common/error.hpp"
+#include "pl/common/text.hpp"
+#include "http_request.hpp"
 
 namespace beast = boost::beast;
 namespace http = beast::http;
@@ -43,7 +49,27 @@ std::string utc_now() {
   return buf;
 }
 
+// RFC 9110's IMF-fixdate, for the Date header of every response.
+std::string http_date() {
+  std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[40];
+  std::strftime(buf, sizeof(buf), "%a, %d %b %Y %H:%M:%S GMT", &tm);
+  return buf;
+}
+
 std::mutex log_mutex;
+
+// Request ids: a random prefix per process and a counter ("9f3c01a2-42"), in the access log, the
+// X-Request-Id header and the log line of an internal error.
+std::string next_request_id() {
+  static const std::uint32_t prefix = std::random_device{}();
+  static std::atomic<std::uint64_t> counter{0};
+  char buf[40];
+  std::snprintf(buf, sizeof(buf), "%08x-%llu", prefix, static_cast<unsigned long long>(++counter));
+  return buf;
+}
 
 // Tile bytes as files named by their content hash, so that responses go out with sendfile(2)
 // (no copy into the socket). Tiles never change, so a file once written is valid for good; the
@@ -105,18 +131,43 @@ struct Server::Impl {
   Metrics metrics;
   Api api;
   net::io_context ioc;
-  tcp::acceptor acceptor;
+  std::vector<std::unique_ptr<tcp::acceptor>> acceptors;  // one per address the host resolves to
   net::signal_set signals;
   std::atomic<bool> stopping{false};
   BlobFiles blob_files{raise_fd_limit()};
 
   explicit Impl(ServerConfig c)
-      : cfg(std::move(c)), api(cfg.api, metrics), ioc(std::max(1, cfg.threads)), acceptor(ioc), signals(ioc, SIGINT, SIGTERM) {
-    tcp::endpoint ep(net::ip::make_address(cfg.host), cfg.port);
-    acceptor.open(ep.protocol());
-    acceptor.set_option(net::socket_base::reuse_address(true));
-    acceptor.bind(ep);
-    acceptor.listen(net::socket_base::max_listen_connections);
+      : cfg(std::move(c)), api(cfg.api, metrics), ioc(std::max(1, cfg.threads)), signals(ioc, SIGINT, SIGTERM) {
+    // A literal address, or a name: every address it resolves to ("localhost": 127.0.0.1 and ::1).
+    // With port 0 the first gets a free port and the others the same one.
+    tcp::resolver resolver(ioc);
+    beast::error_code ec;
+    auto results = resolver.resolve(cfg.host, std::to_string(cfg.port), tcp::resolver::passive | tcp::resolver::numeric_service, ec);
+    if (ec || results.empty())
+      throw Error("--listen: cannot resolve \"" + cfg.host + "\" (" + ec.message() + "): give an address (127.0.0.1, ::1, 0.0.0.0) or a known host name");
+    std::uint16_t port = cfg.port;
+    std::string errors;
+    std::vector<tcp::endpoint> seen;
+    for (const auto& r : results) {
+      tcp::endpoint ep(r.endpoint().address(), port);
+      if (std::find(seen.begin(), seen.end(), ep) != seen.end()) continue;
+      seen.push_back(ep);
+      auto a = std::make_unique<tcp::acceptor>(ioc);
+      beast::error_code bec;
+      a->open(ep.protocol(), bec);
+      if (!bec) a->set_option(net::socket_base::reuse_address(true), bec);
+      if (!bec && ep.address().is_v6()) a->set_option(net::ip::v6_only(true), bec);  // v4 and v6 side by side
+      if (!bec) a->bind(ep, bec);
+      if (!bec) a->listen(net::socket_base::max_listen_connections, bec);
+      if (bec) {
+        errors += (errors.empty() ? "" : "; ") + ep.address().to_string() + ": " + bec.message();
+        continue;
+      }
+      if (port == 0) port = a->local_endpoint().port();
+      acceptors.push_back(std::move(a));
+    }
+    if (acceptors.empty()) throw Error("--listen " + cfg.host + ":" + std::to_string(cfg.port) + ": cannot listen (" + errors + ")");
+    if (!errors.empty()) std::fprintf(stderr, "pl-server: not listening on every address of %s (%s)\n", cfg.host.c_str(), errors.c_str());
   }
 
   // One connection: read a request, answer it, repeat while kept alive.
@@ -153,8 +204,7 @@ struct Server::Impl {
    private:
     void read() {
       parser_.emplace();
-      parser_->header_limit(static_cast<std::uint32_t>(server_.cfg.header_limit));
-      parser_->body_limit(64u << 20);
+      limit_parser(*parser_, server_.cfg.header_limit);
       // Idle between requests, then the read timeout once a request has begun.
       if (server_.stopping) return close();
       idle_ = true;
@@ -166,14 +216,10 @@ struct Server::Impl {
       idle_ = false;
       if (ec) return fail_read(ec);
       first_ = false;
-      auto& req = parser_->get();
-      std::size_t limit = Api::body_limit(std::string(req.method_string()), std::string(req.target()));
-      auto length = parser_->content_length();
-      if (length && *length > limit) {
+      if (int status = admit_body(*parser_)) {
         linger_ = true;  // the client is still sending the body: let it finish so it reads the 413
-        return reject(413, "the body is larger than this route accepts (" + std::to_string(limit) + " bytes)");
+        return reject(status, "the body is larger than this route accepts");
       }
-      parser_->body_limit(limit);
       start_ = std::chrono::steady_clock::now();
       if (parser_->is_done()) return on_read({}, 0);  // no body (most GETs): no second read
       stream_.expires_after(ms(server_.cfg.read_timeout_s));
@@ -181,37 +227,25 @@ struct Server::Impl {
     }
 
     void fail_read(beast::error_code ec) {
-      if (ec == http::error::header_limit) return reject(431, "request headers too large");
-      if (ec == http::error::body_limit) {
-        linger_ = true;
-        return reject(413, "the body is larger than this route accepts");
-      }
-      if (ec == http::error::bad_method || ec == http::error::bad_target || ec == http::error::bad_version ||
-          ec == http::error::bad_field || ec == http::error::bad_value || ec == http::error::bad_content_length ||
-          ec == http::error::bad_chunk || ec == http::error::bad_line_ending)
-        return reject(400, "malformed HTTP request: " + ec.message());
-      close();  // end of stream, timeout, reset: nothing to answer
+      ReadFailure f = read_failure(ec);
+      if (f.status == 0) return close();  // end of stream, timeout, reset: nothing to answer
+      linger_ = f.linger;
+      reject(f.status, f.message);
     }
 
     void on_read(beast::error_code ec, std::size_t) {
       if (ec) return fail_read(ec);
       auto& req = parser_->get();
-      ApiRequest ar;
-      ar.method = std::string(req.method_string());
-      ar.target = std::string(req.target());
-      ar.body = std::move(req.body());
-      ar.authorization = std::string(req[http::field::authorization]);
-      ar.if_none_match = std::string(req[http::field::if_none_match]);
+      ApiRequest ar = to_api_request(std::move(req), next_request_id());
       bool keep = req.keep_alive() && !server_.stopping;
-      ApiResponse r = server_.api.handle(ar);
+      ApiResponse r = server_.api.handle(ar);  // never throws
+      request_id_ = ar.request_id;
       send(r, req.version(), keep, ar.method, ar.target);
     }
 
     void reject(int status, const std::string& message) {
-      ApiResponse r;
-      r.status = status;
-      r.body = "{\"error\":\"" + message + "\",\"status\":" + std::to_string(status) + "}\n";
-      r.route = "other";
+      ApiResponse r = rejection(status, message);
+      request_id_ = next_request_id();
       start_ = std::chrono::steady_clock::now();
       std::string method = parser_ && parser_->is_header_done() ? std::string(parser_->get().method_string()) : "-";
       std::string target = parser_ && parser_->is_header_done() ? std::string(parser_->get().target()) : "-";
@@ -226,12 +260,14 @@ struct Server::Impl {
       server_.metrics.observe(r.route.empty() ? "other" : r.route, r.status, seconds, bytes);
       if (server_.cfg.access_log) {
         std::lock_guard<std::mutex> lock(log_mutex);
-        std::fprintf(stdout, "%s %s \"%s %s\" %d %zu %.3fms\n", utc_now().c_str(), remote_.c_str(), method.c_str(), target.c_str(),
-                     r.status, bytes, seconds * 1000.0);
+        std::fprintf(stdout, "%s %s %s \"%s %s\" %d %zu %.3fms\n", utc_now().c_str(), remote_.c_str(), request_id_.c_str(),
+                     printable(method, 32).c_str(), printable(target).c_str(), r.status, bytes, seconds * 1000.0);
         std::fflush(stdout);
       }
       auto fill = [&](auto& res) {
         res.set(http::field::server, "pl-server");
+        res.set(http::field::date, http_date());
+        res.set("X-Request-Id", request_id_);
         if (!r.content_type.empty()) res.set(http::field::content_type, r.content_type);
         for (const auto& [k, v] : r.headers) res.set(k, v);
         res.keep_alive(keep);
@@ -363,6 +399,7 @@ struct Server::Impl {
     bool keep_ = false;
     Impl& server_;
     std::string remote_;
+    std::string request_id_;
     bool first_ = true;
     bool idle_ = false;
     bool linger_ = false;
@@ -373,17 +410,18 @@ struct Server::Impl {
   std::mutex sessions_mutex;
   std::map<Session*, std::weak_ptr<Session>> sessions;
 
-  void accept() {
-    acceptor.async_accept(net::make_strand(ioc), [this](beast::error_code ec, tcp::socket socket) {
+  void accept(tcp::acceptor& acceptor) {
+    acceptor.async_accept(net::make_strand(ioc), [this, &acceptor](beast::error_code ec, tcp::socket socket) {
       if (ec) {
-        if (!stopping) accept();
+        if (!stopping) accept(acceptor);
         return;
       }
       if (metrics.open_connections.load() >= cfg.max_connections) {
         // Over the limit: answer 503 at once and close.
         static const std::string body = "{\"error\":\"too many connections\",\"status\":503}\n";
-        static const std::string busy = "HTTP/1.1 503 Service Unavailable\r\nContent-Type: application/json\r\nConnection: close\r\n"
-                                        "Content-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body;
+        const std::string busy = "HTTP/1.1 503 Service Unavailable\r\nServer: pl-server\r\nDate: " + http_date() +
+                                 "\r\nRetry-After: 1\r\nContent-Type: application/json\r\nConnection: close\r\n"
+                                 "Content-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body;
         beast::error_code wec;
         net::write(socket, net::buffer(busy), wec);
         socket.shutdown(tcp::socket::shutdown_both, wec);
@@ -392,7 +430,7 @@ struct Server::Impl {
         socket.set_option(tcp::no_delay(true), oec);  // request/response: no Nagle delay
         std::make_shared<Session>(std::move(socket), *this)->start();
       }
-      if (!stopping) accept();
+      if (!stopping) accept(acceptor);
     });
   }
 
@@ -400,7 +438,7 @@ struct Server::Impl {
     if (stopping.exchange(true)) return;
     api.set_draining(true);
     beast::error_code ec;
-    acceptor.close(ec);
+    for (auto& a : acceptors) a->close(ec);
     std::vector<std::shared_ptr<Session>> open;
     {
       std::lock_guard<std::mutex> lock(sessions_mutex);
@@ -429,16 +467,41 @@ struct Server::Impl {
 Server::Server(ServerConfig cfg) : impl_(std::make_unique<Impl>(std::move(cfg))) {}
 Server::~Server() = default;
 
-std::uint16_t Server::port() const { return impl_->acceptor.local_endpoint().port(); }
+std::uint16_t Server::port() const { return impl_->acceptors.front()->local_endpoint().port(); }
+
+std::vector<std::string> Server::addresses() const {
+  std::vector<std::string> out;
+  for (const auto& a : impl_->acceptors) {
+    auto ep = a->local_endpoint();
+    std::string host = ep.address().to_string();
+    out.push_back((ep.address().is_v6() ? "[" + host + "]" : host) + ":" + std::to_string(ep.port()));
+  }
+  return out;
+}
+
+// The io_context's threads: a handler that throws (it should not) is logged and the thread goes
+// on running, so one bad request never takes the server down.
+static void run_guarded(net::io_context& ioc) {
+  for (;;) {
+    try {
+      ioc.run();
+      return;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "pl-server: unexpected error in a connection handler (the connection is dropped): %s\n", e.what());
+    } catch (...) {
+      std::fprintf(stderr, "pl-server: unexpected error in a connection handler (the connection is dropped)\n");
+    }
+  }
+}
 
 void Server::run() {
   impl_->signals.async_wait([this](beast::error_code ec, int) {
     if (!ec) impl_->begin_stop();
   });
-  impl_->accept();
+  for (auto& a : impl_->acceptors) impl_->accept(*a);
   std::vector<std::thread> pool;
-  for (int i = 1; i < std::max(1, impl_->cfg.threads); ++i) pool.emplace_back([this] { impl_->ioc.run(); });
-  impl_->ioc.run();
+  for (int i = 1; i < std::max(1, impl_->cfg.threads); ++i) pool.emplace_back([this] { run_guarded(impl_->ioc); });
+  run_guarded(impl_->ioc);
   for (auto& t : pool) t.join();
 }
 

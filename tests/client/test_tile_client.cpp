@@ -8,6 +8,10 @@
 #include <sys/socket.h>
 
 #include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -139,7 +143,8 @@ void expect_same_as_server(HttpClient& http, const MapTile& t) {
   EXPECT_EQ(t.cloud->intensity, ref.intensity);
 }
 
-// The requests in a pl-server access log ("TIME REMOTE \"GET TARGET\" STATUS ..."): (remote, target).
+// The requests in a pl-server access log ("TIME REMOTE [REQUEST-ID] \"GET TARGET\" STATUS ..."):
+// (remote, target). The remote is the second field, whether or not the server logs request ids.
 std::vector<std::pair<std::string, std::string>> requests_in_log(const std::string& log) {
   std::vector<std::pair<std::string, std::string>> out;
   std::istringstream in(log);
@@ -147,9 +152,11 @@ std::vector<std::pair<std::string, std::string>> requests_in_log(const std::stri
   while (std::getline(in, line)) {
     auto q = line.find(" \"GET ");
     if (q == std::string::npos) continue;
-    auto sp = line.rfind(' ', q - 1);
+    std::istringstream fields(line);
+    std::string time, remote;
+    fields >> time >> remote;
     auto end = line.find('"', q + 6);
-    out.emplace_back(line.substr(sp + 1, q - sp - 1), line.substr(q + 6, end - q - 6));
+    out.emplace_back(remote, line.substr(q + 6, end - q - 6));
   }
   return out;
 }
@@ -253,6 +260,183 @@ TEST(TileCache, RefusesFilesThatAreNotATileCache) {
     EXPECT_NE(std::string(e.what()).find("not a tile cache"), std::string::npos) << e.what();
   }
   EXPECT_THROW(TileCache(dir / "no/such/folder/cache.sqlite"), pl::Error);
+}
+
+// ---- a damaged or crafted cache file (the classes tests/fuzz/fuzz_tile_cache.cpp covers) ----------
+
+namespace {
+
+const char* kCacheDamaged = "the tile cache is damaged";
+
+// A cache with 40 blobs of 2 KB, two manifests and a version's rows.
+void make_sample_cache(const std::string& path) {
+  TileCache cache(path);
+  std::vector<pl::client::CachedTile> rows;
+  for (int i = 0; i < 40; ++i) {
+    std::string bytes(2000, static_cast<char>('a' + i % 26));
+    bytes += std::to_string(i);
+    cache.put_blob(pl::store::content_hash(bytes), bytes);
+    rows.push_back({{i % 8, i / 8}, pl::store::content_hash(bytes), i});
+  }
+  cache.put_manifest({"town", 1, 20.0, 0.2, pl::GeoPoint{49.0, 8.4, 110.0}});
+  cache.put_manifest({"town", 2, 20.0, 0.2, pl::GeoPoint{49.0, 8.4, 110.0}});
+  cache.put_tiles("town", 1, rows);
+}
+
+// What the tile client reads from its cache; throws what the cache throws.
+void read_like_the_client(const std::string& path) {
+  TileCache cache(path);
+  cache.last_used("town");
+  cache.manifest("town", 1);
+  for (const auto& t : cache.tiles("town", 1))
+    if (t.exists()) cache.blob(t.hash);
+  cache.blob_count();
+}
+
+std::string cache_error(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const pl::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+void expect_cache_damaged(const std::string& msg, const std::string& path, const std::string& detail) {
+  EXPECT_NE(msg.find(path), std::string::npos) << msg;
+  EXPECT_NE(msg.find(kCacheDamaged), std::string::npos) << msg;
+  EXPECT_NE(msg.find("delete it (it is only a cache"), std::string::npos) << msg;
+  EXPECT_NE(msg.find(detail), std::string::npos) << msg;
+}
+
+void raw_sql(const std::string& path, const std::string& sql) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  char* err = nullptr;
+  int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err);
+  std::string msg = err ? err : "";
+  sqlite3_free(err);
+  sqlite3_close(db);
+  ASSERT_EQ(rc, SQLITE_OK) << sql << ": " << msg;
+}
+
+}  // namespace
+
+TEST(TileCache, TruncatedFileIsRefusedAsDamagedAndLeftAsItWas) {
+  TempDir dir;
+  std::string path = dir / "cache.sqlite";
+  make_sample_cache(path);
+  const std::string whole = pl::test::read_file(path);
+  std::filesystem::resize_file(path, whole.size() / 2);
+  const std::string cut = pl::test::read_file(path);
+  expect_cache_damaged(cache_error([&] { read_like_the_client(path); }), path, "malformed");
+  EXPECT_EQ(pl::test::read_file(path), cut);  // not written, not "repaired"
+}
+
+TEST(TileCache, HeaderThatOnlyLetsSqliteReadIsRefusedAsDamaged) {
+  TempDir dir;
+  std::string path = dir / "cache.sqlite";
+  make_sample_cache(path);
+  {
+    std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(18);
+    f << '\x42';  // the file format write version: SQLite writes 1 (legacy) or 2 (WAL)
+  }
+  const std::string damaged = pl::test::read_file(path);
+  expect_cache_damaged(cache_error([&] { TileCache cache(path); }), path, "may only read it");
+  EXPECT_EQ(pl::test::read_file(path), damaged);
+}
+
+TEST(TileCache, CacheToSwitchToWalIsCheckedWholeFirst) {
+  TempDir dir;
+  std::string path = dir / "cache.sqlite";
+  make_sample_cache(path);
+  raw_sql(path, "PRAGMA journal_mode = DELETE");
+  std::int64_t offset = 0;
+  {
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+    sqlite3_stmt* st = nullptr;
+    ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT (rootpage - 1) * (SELECT page_size FROM pragma_page_size) FROM sqlite_schema "
+                                     "WHERE name = 'manifests'", -1, &st, nullptr), SQLITE_OK);
+    ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
+    offset = sqlite3_column_int64(st, 0);
+    sqlite3_finalize(st);
+    sqlite3_close(db);
+  }
+  {
+    std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(offset);
+    f << std::string(8, '\xee');  // the manifests' page is no b-tree page any more
+  }
+  const std::string damaged = pl::test::read_file(path);
+  expect_cache_damaged(cache_error([&] { TileCache cache(path); }), path, "quick_check");
+  EXPECT_EQ(pl::test::read_file(path), damaged);  // not switched to WAL
+}
+
+TEST(TileCache, CraftedSchemaIsRefusedBeforeAnyOfItRuns) {
+  TempDir dir;
+  std::string path = dir / "cache.sqlite";
+  for (const char* sql : {"CREATE TRIGGER wipe AFTER INSERT ON blobs BEGIN DELETE FROM manifests; END",
+                          "CREATE INDEX tiles_hash ON tiles (hash)",
+                          "DROP TABLE manifests; CREATE VIEW manifests AS WITH RECURSIVE c(x) AS (SELECT 1 UNION ALL "
+                          "SELECT x + 1 FROM c) SELECT 'town', x, 20.0, 0.2, 0, 0, 0, x FROM c"}) {
+    std::filesystem::remove(path);
+    make_sample_cache(path);
+    raw_sql(path, sql);
+    const std::string crafted = pl::test::read_file(path);
+    expect_cache_damaged(cache_error([&] { TileCache cache(path); }), path, "its tables are not the ones this software makes");
+    EXPECT_EQ(pl::test::read_file(path), crafted) << sql;
+  }
+}
+
+TEST(TileCache, ValuesOfTheWrongKindAreRefused) {
+  struct Case {
+    const char* sql;
+    std::function<void(TileCache&)> read;
+    const char* detail;
+  };
+  auto rows = [](TileCache& c) { c.tiles("town", 1); };
+  const Case cases[] = {
+      {"UPDATE tiles SET hash = 'zz' WHERE tx = 0 AND ty = 0", rows, "tiles.hash is not a SHA-256 hash"},
+      {"UPDATE tiles SET tx = 1099511627776 WHERE tx = 0 AND ty = 0", rows, "tiles.tx is out of range"},
+      {"UPDATE tiles SET points = 'many'", rows, "tiles.points is not an integer"},
+      {"UPDATE manifests SET tile_size = 'twenty'", [](TileCache& c) { c.manifest("town", 1); }, "manifests.tile_size is not a number"},
+      {"UPDATE manifests SET tile_size = -20", [](TileCache& c) { c.manifest("town", 1); }, "manifests.tile_size"},
+      {"UPDATE manifests SET origin_alt = 9e999", [](TileCache& c) { c.last_used("town"); }, "manifests.origin_alt is not finite"},
+      // Text sorts after every number: without the check this row would be "last used" for ever.
+      {"UPDATE manifests SET used = 'always' WHERE version = 1", [](TileCache& c) { c.last_used("town"); },
+       "manifests.used is not an integer"},
+  };
+  TempDir dir;
+  std::string path = dir / "cache.sqlite";
+  for (const Case& c : cases) {
+    std::filesystem::remove(path);
+    make_sample_cache(path);
+    raw_sql(path, c.sql);
+    TileCache cache(path);
+    expect_cache_damaged(cache_error([&] { c.read(cache); }), path, c.detail);
+  }
+}
+
+TEST(TileCache, WritesRefuseWhatReadsWouldRefuse) {
+  TempDir dir;
+  TileCache cache(dir / "cache.sqlite");
+  const std::string hash = pl::store::content_hash("bytes");
+  EXPECT_THROW(cache.put_blob("not-a-hash", "bytes"), pl::Error);
+  EXPECT_THROW(cache.put_blob(std::string(64, 'A'), "bytes"), pl::Error);  // upper case is not how hashes are written
+  EXPECT_THROW(cache.put_tiles("town", 1, {{{0, 0}, "../../etc", 1}}), pl::Error);
+  EXPECT_THROW(cache.put_manifest({"town", 1, 0.0, 0.2, pl::GeoPoint{}}), pl::Error);
+  EXPECT_THROW(cache.put_manifest({"town", 1, 20.0, -0.2, pl::GeoPoint{}}), pl::Error);
+  EXPECT_THROW(cache.put_manifest({"town", 1, 20.0, 0.2, pl::GeoPoint{std::nan(""), 0, 0}}), pl::Error);
+  cache.put_blob(hash, "bytes");
+  cache.put_blob(pl::store::content_hash(""), "");  // an empty blob is a blob
+  EXPECT_EQ(cache.blob(pl::store::content_hash("")), std::string());
+  cache.put_tiles("town", 1, {{{0, 0}, hash, 1}, {{0, 1}, "", 0}});
+  cache.put_manifest({"town", 1, 20.0, 0.0, pl::GeoPoint{}});  // a server that gave no voxel size
+  EXPECT_EQ(cache.tiles("town", 1).size(), 2u);
+  EXPECT_EQ(cache.blob_count(), 2u);
+  EXPECT_DOUBLE_EQ(cache.last_used("town")->voxel_size, 0.0);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
 
 #include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
@@ -31,6 +34,12 @@ std::string error_of(const std::string& dir) {
     return e.what();
   }
   return "(no error)";
+}
+
+// Whether an error message says what it should; on failure the test shows both.
+testing::AssertionResult contains(const std::string& message, const std::string& part) {
+  if (message.find(part) != std::string::npos) return testing::AssertionSuccess();
+  return testing::AssertionFailure() << "the message \"" << message << "\"\ndoes not contain \"" << part << "\"";
 }
 
 pl::Scan small_scan(float shift) { return {{1.f + shift, 2.f, 3.f, 0.5f}, {4.f, 5.f, 6.f, 0.25f}}; }
@@ -384,4 +393,114 @@ TEST(Dataset, DegradeGpsRejectsBadInputClearly) {
   EXPECT_EQ(pl::test::read_file(dir / "taken/notes.txt"), "mine");
   EXPECT_EQ(pl::test::read_file(dir / "linked/gps.csv"), "t,lat,lon,alt,std_m,status\n");
   EXPECT_TRUE(std::filesystem::is_symlink(dir / "linked/scans"));
+}
+
+// The regressions below are the classes of fuzz_dataset's findings (tests/fuzz/regressions/dataset):
+// undefined behaviour, an exception that was not a pl::Error, or a dataset with duplicate frames or
+// non-finite times and poses, before the reader checked them.
+
+namespace {
+
+// A one-scan odometry drive in `dir`.
+void write_odometry_drive(const TempDir& dir) {
+  std::filesystem::create_directories(dir / "velodyne");
+  pl::write_kitti_bin(dir / "velodyne/000000.bin", small_scan(0));
+  write_file(dir / "times.txt", "0\n");
+}
+
+// The 30 values of an OXTS record with lat, lon and the values at `changes` (index -> text) replaced.
+std::string oxts_record(const std::map<int, std::string>& changes) {
+  std::vector<std::string> v = {"49.0112128", "8.422885", "112.8", "0.01", "-0.02", "-1.2"};
+  v.resize(30, "0");
+  v[23] = "0.05", v[27] = "6";
+  for (const auto& [i, text] : changes) v[static_cast<std::size_t>(i)] = text;
+  std::string line;
+  for (const auto& x : v) line += x + " ";
+  return line + "\n";
+}
+
+}  // namespace
+
+TEST(Dataset, TwoScansOfOneFrameAreRefused) {
+  TempDir dir;
+  write_odometry_drive(dir);
+  pl::write_kitti_bin(dir / "velodyne/0.bin", small_scan(1));
+  const std::string e = error_of(dir.path());
+  EXPECT_TRUE(contains(e, "velodyne/0.bin and "));
+  EXPECT_TRUE(contains(e, "velodyne/000000.bin are both frame 0: keep one scan per frame number"));
+}
+
+TEST(Dataset, TimestampsOutOfRangeAreRefused) {
+  double s = 0;
+  // sscanf's %d on more digits than an int holds is undefined, and so was the day count after it.
+  EXPECT_FALSE(pl::parse_kitti_timestamp("-2147483648-01-01 00:00:00.0", s));
+  EXPECT_FALSE(pl::parse_kitti_timestamp("99999-01-01 00:00:00.0", s));
+  EXPECT_FALSE(pl::parse_kitti_timestamp("2011-09-26 13:02:nan", s));
+  EXPECT_FALSE(pl::parse_kitti_timestamp("2011-09-26 13:02:1e400", s));
+  ASSERT_TRUE(pl::parse_kitti_timestamp("0001-01-01 00:00:00", s));
+  TempDir dir;
+  write_raw_drive(dir.path(), 2);
+  write_file(dir / "oxts/timestamps.txt", "2011-09-26 13:02:25.9\n2011-09-26 13:02:nan\n");
+  EXPECT_TRUE(contains(error_of(dir.path()), "oxts/timestamps.txt:2: expected a timestamp like 2011-09-26 13:04:32.349659964, found \"2011-09-26 13:02:nan\""));
+}
+
+TEST(Dataset, MetaNumbersOutOfRangeAreRefused) {
+  TempDir dir;
+  write_odometry_drive(dir);
+  // nlohmann's get<int>() on 1e300 is a float-to-int conversion out of range (undefined).
+  write_file(dir / "meta.json", R"({"sensor": {"beams": 1e300}})");
+  EXPECT_TRUE(contains(error_of(dir.path()), "meta.json: \"sensor.beams\" must be a whole number, found 1e+300"));
+  write_file(dir / "meta.json", R"({"sensor": {"beams": 16.5}})");
+  EXPECT_TRUE(contains(error_of(dir.path()), "\"sensor.beams\" must be a whole number, found 16.5"));
+  write_file(dir / "meta.json", R"({"sensor": {"beams": true}})");
+  EXPECT_TRUE(contains(error_of(dir.path()), "\"sensor.beams\" has the wrong type (boolean; expected a whole number)"));
+  write_file(dir / "meta.json", R"({"sensor": {"beams": 16.0}})");
+  EXPECT_EQ(pl::open_dataset(dir.path()).meta.sensor.beams, 16);
+  // A number beyond double was nlohmann's out_of_range, not a pl::Error: it escaped the reader.
+  write_file(dir / "meta.json", R"({"sensor": {"beams": 64, "fov_deg": 1e400}})");
+  const std::string e = error_of(dir.path());
+  EXPECT_TRUE(contains(e, "meta.json: not valid JSON: "));
+  EXPECT_TRUE(contains(e, "number overflow parsing '1e400'"));
+}
+
+TEST(Dataset, OxtsValuesOutOfRange) {
+  TempDir dir;
+  write_raw_drive(dir.path(), 2);
+  // At lat -90 the Mercator projection is infinite.
+  write_file(dir / "oxts/data/0000000001.txt", oxts_record({{0, "-90"}}));
+  EXPECT_TRUE(contains(error_of(dir.path()), "oxts/data/0000000001.txt: expected lat in (-90, 90) and lon in [-180, 180] degrees (the first two values), found -90 8.422885"));
+  write_file(dir / "oxts/data/0000000001.txt", oxts_record({{1, "1e300"}}));
+  EXPECT_TRUE(contains(error_of(dir.path()), "found 49.0112128 1e+300"));
+  write_file(dir / "oxts/data/0000000001.txt", oxts_record({{23, "-1"}}));
+  EXPECT_TRUE(contains(error_of(dir.path()), "oxts/data/0000000001.txt: expected pos_accuracy (value 24) >= 0, found -1"));
+  // A position mode that is no mode (1e300 as an int was undefined) is no fix status.
+  write_file(dir / "oxts/data/0000000001.txt", oxts_record({{27, "1e300"}}));
+  pl::Dataset ds = pl::open_dataset(dir.path());
+  EXPECT_EQ(ds.gps[1].status, pl::kGpsNone);
+  write_file(dir / "oxts/data/0000000001.txt", oxts_record({{27, "5.5"}}));
+  EXPECT_EQ(pl::open_dataset(dir.path()).gps[1].status, pl::kGpsNone);
+  // An altitude that overflows in the pose conversion.
+  write_file(dir / "oxts/data/0000000000.txt", oxts_record({{2, "1.7e308"}}));
+  write_file(dir / "oxts/data/0000000001.txt", oxts_record({{2, "-1.7e308"}}));
+  EXPECT_TRUE(contains(error_of(dir.path()), "oxts/data/0000000001.txt: the pose of this record is not finite after the conversion (values out of range?)"));
+}
+
+TEST(Dataset, PosesThatOverflowInTheConversionAreRefused) {
+  TempDir dir;
+  write_odometry_drive(dir);
+  write_file(dir / "poses.txt", "1 0 0 1.7e308 0 1 0 1.7e308 0 0 1 1.7e308\n");
+  write_file(dir / "calib.txt", "Tr: 1 0 0 -1.7e308 0 1 0 -1.7e308 0 0 1 -1.7e308\n");
+  EXPECT_TRUE(contains(error_of(dir.path()), "poses.txt: the pose of frame 0 is not finite after the conversion (values out of range?)"));
+  TempDir raw;
+  write_raw_drive(raw.path(), 2);
+  write_file(raw / "calib_imu_to_velo.txt", "R: 0.7071068 -0.7071068 0 0.7071068 0.7071068 0 0 0 1\nT: 1.7e308 1.7e308 1.7e308\n");
+  EXPECT_TRUE(contains(error_of(raw.path()), "oxts/data/0000000000.txt: the pose of this record is not finite after the conversion"));
+}
+
+TEST(Dataset, AFolderInPlaceOfAFileIsNamed) {
+  TempDir dir;
+  write_raw_drive(dir.path(), 2);
+  std::filesystem::remove(dir / "oxts/timestamps.txt");
+  std::filesystem::create_directories(dir / "oxts/timestamps.txt");
+  EXPECT_TRUE(contains(error_of(dir.path()), "oxts/timestamps.txt: is a folder, expected a text file"));
 }

@@ -3,6 +3,9 @@
 #include "pl/common/tile_codec.hpp"
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+
+#include <filesystem>
 
 #include <Eigen/Geometry>
 #include <draco/compression/decode.h>
@@ -556,9 +559,63 @@ TEST(TileCodec, DeclaredSizesBeyondTheBudgetAreRefused) {
       EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
     }
   };
-  expect_refused(with_count(1u << 22), "would decode to");
+  expect_refused(with_count(1u << 22), "would need about");
   expect_refused(with_count(0x7fffffffu), "out of range");
   expect_refused(with_count(0x80000000u), "out of range");
+}
+
+// Only the bitstreams of current encoders are read: 2.2 and 2.3, the k-d tree coder only at 2.3
+// (its older data declares point counts of its own that Draco sizes buffers by, unchecked).
+TEST(TileCodec, BitstreamsOfOldEncodersAreRefused) {
+  TileCloud positions;
+  positions.points = realistic_tile({10.0, 20.0, 0.0}, 5).points;
+  pl::TileCodecConfig sequential, kd;
+  sequential.speed = 10;
+  kd.speed = 0;
+  const std::string seq_bytes = pl::encode_tile(positions, sequential), kd_bytes = pl::encode_tile(positions, kd);
+  ASSERT_EQ(seq_bytes[8], 0);  // POINT_CLOUD_SEQUENTIAL_ENCODING
+  ASSERT_EQ(kd_bytes[8], 1);   // POINT_CLOUD_KD_TREE_ENCODING
+  auto with_version = [](std::string bytes, int major, int minor) {
+    bytes[5] = static_cast<char>(major);
+    bytes[6] = static_cast<char>(minor);
+    return bytes;
+  };
+  auto refused = [](const std::string& bytes) {
+    try {
+      pl::decode_tile(bytes);
+    } catch (const pl::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(decoded)");
+  };
+  EXPECT_EQ(pl::decode_tile(seq_bytes).size(), positions.size());
+  EXPECT_EQ(pl::decode_tile(kd_bytes).size(), positions.size());
+  EXPECT_NE(refused(with_version(seq_bytes, 2, 1)).find("bitstream version 2.1 is not one this build reads"), std::string::npos);
+  EXPECT_NE(refused(with_version(seq_bytes, 1, 3)).find("bitstream version 1.3"), std::string::npos);
+  EXPECT_NE(refused(with_version(kd_bytes, 2, 2)).find("k-d tree stream of bitstream version 2.2"), std::string::npos);
+  EXPECT_NE(refused(with_version(seq_bytes, 2, 4)).find("not one this build reads"), std::string::npos);
+}
+
+// Every input the fuzzers (and an attacker) found is refused with a message, without the memory it
+// asked for (some asked for 14 GB) and without an exception other than pl::Error.
+TEST(TileCodec, EveryFuzzFindingIsRefusedWithoutItsMemory) {
+  rusage before{};
+  getrusage(RUSAGE_SELF, &before);
+  int n = 0;
+  for (const auto& e : std::filesystem::directory_iterator(std::string(PL_SOURCE_DIR) + "/tests/fuzz/regressions/tile")) {
+    const std::string bytes = pl::test::read_file(e.path().string());
+    try {
+      pl::decode_tile(bytes);
+      ADD_FAILURE() << e.path() << " decoded";
+    } catch (const pl::Error& err) {
+      EXPECT_NE(std::string(err.what()).find("not a valid Draco point cloud"), std::string::npos) << err.what();
+    }
+    ++n;
+  }
+  EXPECT_GE(n, 5);
+  rusage after{};
+  getrusage(RUSAGE_SELF, &after);
+  EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 256 * 1024) << "peak memory grew by more than 256 MiB (kB: " << after.ru_maxrss << ")";
 }
 
 // Debian's draco_decoder reads our tiles (as offsets from the tile origin).

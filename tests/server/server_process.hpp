@@ -20,10 +20,12 @@ namespace pl::test {
 
 class ServerProcess {
  public:
-  // Starts `pl-server --db DB --listen 127.0.0.1:0 EXTRA...` (output to DB.log) and waits for its
-  // "listening" line.
-  ServerProcess(const std::string& db, std::vector<std::string> extra = {}) : log_(db + ".log") {
-    std::vector<std::string> args = {tool("pl-server"), "--db", db, "--listen", "127.0.0.1:0", "--threads", "2"};
+  // Starts `pl-server --db DB --listen LISTEN EXTRA...` (output to DB.log) with extra environment
+  // variables, and waits for its "listening" line.
+  ServerProcess(const std::string& db, std::vector<std::string> extra = {}, std::vector<std::pair<std::string, std::string>> env = {},
+                const std::string& listen = "127.0.0.1:0")
+      : log_(db + ".log") {
+    std::vector<std::string> args = {tool("pl-server"), "--db", db, "--listen", listen, "--threads", "2"};
     args.insert(args.end(), extra.begin(), extra.end());
     int log_fd = open(log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (log_fd < 0) throw std::runtime_error("cannot write " + log_);
@@ -32,6 +34,7 @@ class ServerProcess {
       dup2(log_fd, STDOUT_FILENO);
       dup2(log_fd, STDERR_FILENO);
       close(log_fd);
+      for (const auto& [k, v] : env) setenv(k.c_str(), v.c_str(), 1);
       std::vector<char*> argv;
       for (auto& a : args) argv.push_back(a.data());
       argv.push_back(nullptr);
@@ -40,7 +43,7 @@ class ServerProcess {
     }
     close(log_fd);
     auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-    std::regex re("listening on http://127\\.0\\.0\\.1:([0-9]+)");
+    std::regex re("listening on http://[^ ]*:([0-9]+)");
     while (std::chrono::steady_clock::now() < deadline) {
       drain(200);
       std::smatch m;
@@ -64,6 +67,14 @@ class ServerProcess {
   }
   std::string url() const { return "http://127.0.0.1:" + std::to_string(port_); }
   int port() const { return port_; }
+  pid_t pid() const { return pid_; }
+  bool alive() const { return pid_ > 0 && waitpid(pid_, nullptr, WNOHANG) == 0; }
+  // A line of /proc/PID/status in kB ("VmRSS", "VmHWM"), or -1.
+  long status_kb(const std::string& field) const {
+    std::string status = read_file("/proc/" + std::to_string(pid_) + "/status");
+    auto at = status.find(field + ":");
+    return at == std::string::npos ? -1 : std::stol(status.substr(at + field.size() + 1));
+  }
 
   // SIGTERM and wait; returns the exit code (or -signal).
   int terminate(double timeout_s = 20.0) { return stop_with(SIGTERM, timeout_s); }

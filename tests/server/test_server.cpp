@@ -20,6 +20,7 @@
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
 #include "pl/schema/store.hpp"
+#include "map_fixture.hpp"
 #include "server_process.hpp"
 #include "test_util.hpp"
 
@@ -30,36 +31,11 @@ using pl::test::TempDir;
 
 namespace {
 
-const std::string kReadToken = "read-7f3a", kUploadToken = "upload-91c2", kAdminToken = "admin-5d0e";
-
-// A small town block on a 0.2 m grid: ground, two facades and a pole, spanning several 20 m tiles
-// (also on the negative side of the grid).
-pl::Points3d street_cloud() {
-  pl::Points3d pts;
-  // Ground between the facades (no voxel shared with them, so voxelizing keeps every point).
-  for (double x = -30.0; x < 50.0; x += 0.4)
-    for (double y = -5.0; y < 21.0; y += 0.4) pts.emplace_back(x + 0.1, y + 0.1, 0.02 * x);
-  for (double x = -28.0; x < 45.0; x += 0.2)
-    for (double z = 0.2; z < 8.0; z += 0.2) pts.emplace_back(x + 0.1, 22.1, z + 0.1), pts.emplace_back(x + 0.1, -6.1, z + 0.1);
-  for (double z = 0.0; z < 6.0; z += 0.2) pts.emplace_back(5.1, 5.1, z + 0.1);
-  return pts;
-}
-
-struct MapFixture {
-  TempDir dir;
-  std::string db = dir / "maps.sqlite";
-  pl::Points3d cloud = street_cloud();
-
-  MapFixture() {
-    pl::write_pcd(dir / "street.pcd", cloud, std::vector<float>(cloud.size(), 0.5f), pl::GeoPoint{49.0, 8.4, 110.0});
-    auto r = pl::test::run(pl::test::tool("pl-map") + " tile --cloud " + (dir / "street.pcd") + " --db " + db + " --map town");
-    if (r.exit_code != 0) throw std::runtime_error(r.output);
-    r = pl::test::run(pl::test::tool("pl-map") + " publish --db " + db + " --map town --version 1");
-    if (r.exit_code != 0) throw std::runtime_error(r.output);
-    pl::test::write_file(dir / "tokens.txt", "read " + kReadToken + "\nupload " + kUploadToken + "\nadmin " + kAdminToken + "\n");
-  }
-  std::vector<std::string> token_args() { return {"--tokens", dir / "tokens.txt"}; }
-};
+using pl::test::kAdminToken;
+using pl::test::kReadToken;
+using pl::test::kUploadToken;
+using pl::test::MapFixture;
+using pl::test::street_cloud;
 
 std::map<std::string, std::string> bearer(const std::string& token) { return {{"Authorization", "Bearer " + token}}; }
 

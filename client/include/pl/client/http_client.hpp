@@ -2,6 +2,7 @@
 // pl-server: tests, pl-map push, and the localizer's tile fetcher.
 #pragma once
 
+#include <cstddef>
 #include <map>
 #include <memory>
 #include <string>
@@ -18,7 +19,10 @@ struct HttpResponse {
 class HttpClient {
  public:
   // base: "http://HOST:PORT" (an optional trailing path is ignored). Throws pl::Error when malformed.
-  explicit HttpClient(const std::string& base, double timeout_s = 10.0);
+  // An answer with a body over max_body_bytes (default: 64 MiB, the largest tile the server takes)
+  // or headers over 8 KiB is refused as an error, never held in memory.
+  explicit HttpClient(const std::string& base, double timeout_s = 10.0, std::size_t max_body_bytes = kDefaultMaxBody);
+  static constexpr std::size_t kDefaultMaxBody = std::size_t{64} << 20;
   ~HttpClient();
   HttpClient(const HttpClient&) = delete;
   HttpClient& operator=(const HttpClient&) = delete;
@@ -38,6 +42,7 @@ class HttpClient {
   std::unique_ptr<Impl> impl_;
   std::string host_, port_;
   double timeout_s_;
+  std::size_t max_body_;
 };
 
 // "a b/c" -> "a%20b%2Fc" for query values and path segments.

@@ -63,7 +63,7 @@ class RoiMap {
  private:
   struct Tile;
   struct Table;
-  double tile_size_, cell_;
+  double cell_;
   Eigen::Vector3d anchor_;
   std::map<TileKey, std::unique_ptr<Tile>> tiles_;
   std::unique_ptr<Table> table_;

@@ -5,7 +5,9 @@
 //
 // A TileCache is one SQLite connection: use it from one thread at a time (open one per thread).
 // Several connections and processes may share the file. Every failure is a pl::Error whose message
-// starts with the file's path.
+// starts with the file's path. A damaged file (SQLite's reports of damage, values of the wrong type
+// or out of range, a schema other than this build's own) gives "PATH: the tile cache is damaged
+// (WHAT): delete it (...)"; nothing is written to a file that is refused at opening.
 #pragma once
 
 #include <cstdint>
@@ -55,16 +57,19 @@ class TileCache {
   std::optional<std::string> blob(const std::string& hash, bool* corrupt = nullptr);
   bool has_blob(const std::string& hash) const;
   // Stores bytes under their hash (the caller has checked that `hash` is their SHA-256: a wrong one
-  // is caught by blob() as corruption). Idempotent.
+  // is caught by blob() as corruption; one that is not 64 lowercase hex digits is refused). Idempotent.
   void put_blob(const std::string& hash, std::string_view bytes);
   std::size_t blob_count() const;
 
-  // Manifests. put_manifest stores (or replaces) one and makes it the last used of its map.
+  // Manifests. put_manifest stores (or replaces) one and makes it the last used of its map; it
+  // refuses a tile size that is not a positive number, a voxel size that is negative or not finite,
+  // and an origin that is not finite.
   void put_manifest(const CachedManifest& m);
   std::optional<CachedManifest> manifest(const std::string& map, long long version) const;
   std::optional<CachedManifest> last_used(const std::string& map) const;
 
-  // The key -> hash rows of a version, written in one transaction (a row replaces the key's old one).
+  // The key -> hash rows of a version, written in one transaction (a row replaces the key's old one;
+  // a hash must be empty or 64 lowercase hex digits).
   void put_tiles(const std::string& map, long long version, const std::vector<CachedTile>& tiles);
   std::vector<CachedTile> tiles(const std::string& map, long long version) const;
 

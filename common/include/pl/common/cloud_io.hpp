@@ -4,6 +4,7 @@
 
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "pl/common/geo.hpp"
@@ -23,6 +24,15 @@ struct Cloud {
 Cloud read_cloud(const std::string& path);
 Cloud read_pcd(const std::string& path);
 Cloud read_ply(const std::string& path);
+
+// The same readers on bytes already in memory (a bag record, a fuzzer's input); `name` stands for the
+// file in messages and, for parse_cloud, gives the format by its extension. Every count and length
+// in a header is checked against the bytes present before anything is allocated, so a damaged or
+// hostile file is refused with a pl::Error, never read out of bounds. A cloud that comes back has
+// finite points, and finite intensities, one per point, when it has any.
+Cloud parse_cloud(std::string_view bytes, const std::string& name);
+Cloud parse_pcd(std::string_view bytes, const std::string& name);
+Cloud parse_ply(std::string_view bytes, const std::string& name);
 
 // Binary PCD with fields x y z intensity (float32). Coordinates must be in a local frame (float32
 // keeps ~0.1 mm within a few kilometres): throws pl::Error for coordinates beyond 100 km. With an

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace pl {
@@ -13,8 +14,11 @@ struct PointXYZI {
 };
 using Scan = std::vector<PointXYZI>;
 
-// KITTI .bin: little-endian float32 x y z reflectance. Throws pl::Error naming the file.
+// KITTI .bin: little-endian float32 x y z reflectance. Throws pl::Error naming the file: a size that
+// is not a whole number of points, a non-finite coordinate or reflectance.
 Scan read_kitti_bin(const std::string& path);
+// The same on bytes in memory (a bag record, a fuzzer's input); `name` stands for the file in messages.
+Scan parse_kitti_bin(std::string_view bytes, const std::string& name);
 void write_kitti_bin(const std::string& path, const Scan& scan);
 
 // Ring of every point of a scan stored laser by laser (KITTI: each laser one counter-clockwise turn

@@ -34,6 +34,14 @@ std::vector<double> parse_numbers(const LineReader& reader, const std::string& l
                                   std::size_t max_count, const std::string& what,
                                   std::string_view separators = " \t\r,");
 
+// The text with every byte sequence that is not valid UTF-8 (stray continuation bytes, overlong
+// forms, surrogates, code points past U+10FFFF, truncated sequences) replaced by U+FFFD, so that it
+// can go into JSON or a log. Valid text comes back unchanged.
+std::string valid_utf8(std::string_view text);
+// The text with control characters, backslashes, quotes and bytes >= 0x7F written as \xHH: one
+// line of plain ASCII for a log, whatever a client sent.
+std::string printable(std::string_view text, std::size_t max_length = 512);
+
 bool file_exists(const std::string& path);
 bool dir_exists(const std::string& path);
 

@@ -32,8 +32,9 @@ std::string encode_tile(const TileCloud& cloud, const TileCodecConfig& cfg = {})
 // Decodes bytes written by encode_tile (or any Draco point cloud with a position attribute; the
 // origin is 0 without "pl.origin" metadata, intensity is a GENERIC attribute named "intensity").
 // Points may come back in another order. Throws pl::Error("not a valid Draco point cloud: ...")
-// when the bytes are not one, and also for Draco meshes and for streams that would decode to more
-// than max(32 MiB, 64 x their size) (memory bombs; encode_tile never writes one).
+// when the bytes are not one, and also for Draco meshes, for bitstreams older than 2.2 (2.3 for the
+// k-d tree coder), and for streams whose declared counts would make Draco hold more than
+// min(256 MiB, max(8 MiB, 64 x their size)) while decoding (memory bombs; encode_tile never writes one).
 TileCloud decode_tile(std::string_view bytes);
 
 // Number of points and attributes. Draco cannot check a payload without decoding it, so this

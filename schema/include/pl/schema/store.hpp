@@ -16,6 +16,16 @@
 //   tile writes. Readers use MapInfo::current; staged tiles are only seen by asking for that
 //   version number explicitly.
 // - Timestamps are UTC ISO 8601 with milliseconds and 'Z' ("2024-05-01T10:11:12.345Z").
+// - Damaged or crafted files: SQLite's own reports of damage (on any call) and every value that
+//   breaks what the schema promises (types, NOT NULL, ranges, names, hashes, states, timestamps, a
+//   current version that is not published, a parent that does not exist, a blob whose bytes do not
+//   hash to its hash) are a pl::Error "PATH: the map store is damaged (WHAT): restore it from a
+//   backup, or rebuild it with pl-map". A schema that is not exactly the migrations' own (an extra
+//   trigger, a view for a table, a table without its constraints) is refused at open. Damage SQLite
+//   only finds in a full check (keys out of order, an index that disagrees with its table) shows in
+//   integrity_ok(). Free text (notes, the upload log) is returned as it was stored, byte for byte.
+// - Opening writes nothing to a file it refuses. Opening a current WAL store writes nothing at all;
+//   a store that open must switch to WAL or migrate is first checked whole (PRAGMA quick_check).
 #pragma once
 
 #include <cstdint>
@@ -69,8 +79,8 @@ std::string content_hash(std::string_view bytes);
 class Store {
  public:
   // Opens (creating when `create`) and migrates the database. Throws pl::Error naming the file and
-  // the problem (not a database, newer schema than this build knows, read-only, ...).
-  // Without `create` a missing file is an error. Migrations run in one transaction each.
+  // the problem (not a database, newer schema than this build knows, read-only, damaged, ...).
+  // Without `create` a missing or empty file is an error. Migrations run in one transaction each.
   static Store open(const std::string& path, bool create = true);
   // The newest schema version (PRAGMA user_version) this build can migrate to.
   static int latest_schema_version();
@@ -123,6 +133,7 @@ class Store {
   // touching edges intersect. An inverted (min > max) or NaN rectangle matches nothing.
   std::vector<TileRecord> tiles_in_box(const std::string& map, std::int64_t version, double min_x, double min_y,
                                        double max_x, double max_y) const;
+  // The bytes whose SHA-256 is `hash` (checked: bytes that changed on disk are a damaged error).
   std::optional<std::string> blob(const std::string& hash) const;
   bool has_blob(const std::string& hash) const;
 

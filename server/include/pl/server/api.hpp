@@ -8,9 +8,21 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <string_view>
 #include <vector>
 
+#include "pl/common/tile_key.hpp"
+
 namespace pl::server {
+
+// The check of an uploaded tile (PUT .../tiles/{tx}/{ty}): the bytes decode (within decode_tile's
+// limits), hold at least one point, and every point lies in the key's square of a grid of
+// `tile_size` metres (1 cm of slack for quantization). Throws pl::Error saying what is wrong.
+struct TileUpload {
+  std::size_t points = 0;
+  double min[3] = {0, 0, 0}, max[3] = {0, 0, 0};  // the points' box, ENU metres
+};
+TileUpload check_tile_upload(std::string_view bytes, double tile_size, const TileKey& key);
 
 struct ApiConfig {
   std::string db;
@@ -24,6 +36,8 @@ struct ApiRequest {
   std::string body;
   std::string authorization;
   std::string if_none_match;
+  std::string accept_encoding;
+  std::string request_id;  // the server's id of the request, for the log of an internal error
 };
 
 struct ApiResponse {
@@ -49,7 +63,7 @@ class Metrics {
                                             "/v1/maps/{map}/versions", "/v1/maps/{map}/versions/{v}/tiles",
                                             "/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}", "/v1/maps/{map}/versions/{v}/publish",
                                             "/v1/blobs/{hash}", "other"};
-  static constexpr int kStatuses[] = {200, 201, 304, 400, 401, 403, 404, 405, 409, 413, 422, 431, 500, 503, 0};  // 0: any other
+  static constexpr int kStatuses[] = {200, 201, 204, 304, 400, 401, 403, 404, 405, 409, 413, 422, 431, 500, 503, 0};  // 0: any other
   static constexpr double kBuckets[] = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 1.0};
   static constexpr std::size_t kNRoutes = sizeof(kRoutes) / sizeof(kRoutes[0]), kNStatuses = sizeof(kStatuses) / sizeof(int),
                                kNBuckets = sizeof(kBuckets) / sizeof(double) + 1;
@@ -62,6 +76,9 @@ class Api {
  public:
   Api(ApiConfig cfg, Metrics& metrics);
   ~Api();
+  // Never throws: a failure it did not expect is a 500 (logged to stderr with the request id).
+  // HEAD answers as GET (the caller drops the body), OPTIONS with 204 and Allow; 405 carries
+  // Allow, 401 WWW-Authenticate; JSON is gzip-compressed when req.accept_encoding allows.
   ApiResponse handle(const ApiRequest& req);
   // Largest body accepted for a route (413 beyond): tiles up to 64 MB, JSON bodies 64 KB, else 0.
   static std::size_t body_limit(const std::string& method, const std::string& target);

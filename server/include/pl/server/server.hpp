@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "pl/server/api.hpp"
 
@@ -12,7 +13,7 @@ namespace pl::server {
 
 struct ServerConfig {
   ApiConfig api;
-  std::string host = "127.0.0.1";
+  std::string host = "127.0.0.1";  // an address (127.0.0.1, ::1, 0.0.0.0) or a name: every address it resolves to
   std::uint16_t port = 8080;  // 0: any free port (the one chosen is printed)
   int threads = 2;
   std::size_t header_limit = 8 * 1024;
@@ -28,6 +29,7 @@ class Server {
   explicit Server(ServerConfig cfg);
   ~Server();
   std::uint16_t port() const;  // the bound port
+  std::vector<std::string> addresses() const;  // "127.0.0.1:8080", "[::1]:8080": where it listens
   // Serves until SIGTERM/SIGINT (or stop()): then stops accepting, lets in-flight requests finish
   // within the drain timeout, and returns.
   void run();

@@ -1,0 +1,48 @@
+// What the tile client reads from pl-server's answers (schema/openapi.yaml): the manifest, region-
+// of-interest answers, error bodies and tile bytes. Pure functions over the bytes that arrived, so
+// that they are tested and fuzzed without a network: anything a server (or whatever sits between it
+// and the vehicle) sends is refused with a WireError naming what is wrong, never trusted.
+// Private to pl_client; shared by the tile client and the client_answers fuzz target.
+#pragma once
+
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "pl/client/tile_cache.hpp"
+#include "pl/common/tile_codec.hpp"
+
+namespace pl::client::wire {
+
+// An answer that is not what the API promises; what() says how (without the "about" prefix).
+struct WireError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+bool is_hash(std::string_view s);  // 64 lowercase hex digits
+bool valid_map_name(std::string_view name);  // [A-Za-z0-9_.-], 1 to 64 characters
+// Tile sizes maps are made with (the server's create_map range). A tiny size from a hostile server
+// or a crafted disk cache would make a 100 m focus disc billions of keys.
+constexpr double kMinTileSize = 1.0, kMaxTileSize = 1000.0;
+bool valid_tile_size(double metres);
+
+// GET /v1/maps/{map}: the manifest of `map`. The version is `pin` when given, else the map's
+// current one (a WireError when it has none). tile_size must be valid_tile_size.
+CachedManifest parse_manifest(std::string_view body, const std::string& map, std::optional<long long> pin);
+
+// GET /v1/maps/{map}/roi?...&version=V: the tiles listed (key, hash, points). The answer must be for
+// `version` and `tile_size`; every tile needs integer keys, a valid hash and points >= 0.
+std::vector<CachedTile> parse_roi(std::string_view body, long long version, double tile_size);
+
+// What an error answer says: the "error" string of a JSON error body, else the start of the body
+// (made valid UTF-8, at most 200 bytes); empty for an empty body.
+std::string error_text(std::string_view body);
+
+// Tile bytes fetched for `hash`: checked against the hash before anything else, then decoded.
+// Throws WireError for bytes that do not match (naming both hashes); pl::Error for bytes that do
+// but do not decode (a tile the store holds broken).
+TileCloud verified_tile(std::string_view bytes, const std::string& hash);
+
+}  // namespace pl::client::wire

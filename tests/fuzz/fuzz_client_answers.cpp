@@ -1,0 +1,96 @@
+// Fuzz target: what the vehicle's tile client reads from a server (or from anything between the
+// server and the vehicle): the HTTP answer itself under the client's limits, and the manifest, ROI
+// JSON, error bodies and tile bytes in it. The first byte says which; the rest is the answer.
+#include <boost/asio/buffer.hpp>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <string>
+#include <string_view>
+
+#include "beast_feed.hpp"
+#include "http_response.hpp"
+#include "pl/common/error.hpp"
+#include "pl/schema/store.hpp"
+#include "wire.hpp"
+
+namespace wire = pl::client::wire;
+
+namespace {
+
+void manifest(std::string_view body, std::optional<long long> pin) {
+  try {
+    auto m = wire::parse_manifest(body, "town", pin);
+    if (!(m.tile_size > 0 && std::isfinite(m.tile_size)) || m.version < 1 || !std::isfinite(m.origin.lat_deg)) std::abort();
+  } catch (const wire::WireError&) {
+  }
+}
+
+void roi(std::string_view body) {
+  try {
+    for (const auto& t : wire::parse_roi(body, 1, 20.0))
+      if (!wire::is_hash(t.hash) || t.points < 0) std::abort();
+  } catch (const wire::WireError&) {
+  }
+}
+
+void tile(std::string_view bytes, const std::string& hash) {
+  try {
+    auto cloud = wire::verified_tile(bytes, hash);
+    for (const auto& p : cloud.points)
+      if (!p.allFinite()) std::abort();
+  } catch (const wire::WireError&) {
+  } catch (const pl::Error&) {
+  }
+}
+
+
+// An HTTP answer as HttpClient reads it (64 MiB body limit; the fuzzer's inputs are far smaller, so
+// a smaller limit is used to reach the limit's code), then its body as the client would use it.
+void http_answer(std::string_view in) {
+  constexpr std::size_t kLimit = 4096;
+  pl::client::ResponseParser parser;
+  pl::client::limit_response_parser(parser, kLimit);
+  boost::beast::error_code ec;
+  // As HttpClient reads: the header on its own, the declared length checked, then the rest eagerly.
+  std::size_t used = pl::fuzz::feed(parser, in, true, ec);
+  if (!ec && !parser.is_header_done()) {
+    if (!parser.got_some()) return;
+    parser.put_eof(ec);
+  }
+  if (ec) return;  // HttpClient throws pl::Error with ec's message: the tile client backs off
+  pl::client::admit_response_body(parser, kLimit, ec);
+  if (ec) return;
+  parser.eager(true);
+  pl::fuzz::feed(parser, in.substr(used), false, ec);
+  if (!ec && !parser.is_done()) parser.put_eof(ec);
+  if (ec) return;
+  pl::client::HttpResponse res = pl::client::to_http_response(parser.release());
+  if (res.body.size() > kLimit) std::abort();
+  if (res.status == 200) {
+    roi(res.body);
+    manifest(res.body, std::nullopt);
+  } else {
+    wire::error_text(res.body);
+  }
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return 0;
+  const std::string_view body(reinterpret_cast<const char*>(data) + 1, size - 1);
+  switch (data[0] % 6) {
+    case 0: manifest(body, std::nullopt); break;
+    case 1: manifest(body, 3); break;
+    case 2: roi(body); break;
+    case 3: {
+      std::string text = wire::error_text(body);
+      if (text.size() > 3 * 500) std::abort();
+      break;
+    }
+    case 4: tile(body, pl::store::content_hash(body)); break;  // what the store holds, decoded
+    case 5: http_answer(body); break;
+  }
+  return 0;
+}

@@ -1,0 +1,9 @@
+# The file readers' fuzz targets: PCD, PLY and KITTI .bin clouds (common/src/cloud_io.cpp, scan.cpp)
+# and dataset folders (common/src/dataset.cpp, meta.cpp, text.cpp). Their dictionaries are
+# tests/fuzz/NAME.dict.
+pl_add_fuzzer(pcd SOURCES fuzz_pcd.cpp LIBS pl_common)
+pl_add_fuzzer(ply SOURCES fuzz_ply.cpp LIBS pl_common)
+pl_add_fuzzer(kitti_bin SOURCES fuzz_kitti_bin.cpp LIBS pl_common)
+pl_add_fuzzer(dataset SOURCES fuzz_dataset.cpp LIBS pl_common)
+
+target_sources(make_fuzz_seeds PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/seeds_readers.cpp)
