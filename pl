@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # PointLocalization: set-up, build, demo, tests and benchmarks in one command.
 #   ./pl demo    install what is missing, build Release, run the main job and print its result
-#   ./pl test    install what is missing, build Debug with ASan+UBSan, run every test
+#   ./pl test    install what is missing, build Debug with ASan+UBSan, run every test, fuzz each target 30 s
 #   ./pl bench   install what is missing, build Release, run every benchmark in bench/
 #   ./pl build   install what is missing and build Release only
 #   ./pl fuzz [TARGET...] [--seconds N]   build the libFuzzer targets (clang) and run each N s (60)
