@@ -49,7 +49,7 @@ struct TileSource {
   double tile_size = 0;
   long long version = 0;
 
-  std::vector<pl::client::RoiMap::TileRef> near(const Eigen::Vector2d& c, double r) {
+  std::vector<pl::client::MapTile> near(const Eigen::Vector2d& c, double r) {
     return store ? store->near(c, r) : client->tiles_near(c, r);
   }
   void focus(const Eigen::Vector2d& now, const Eigen::Vector2d& ahead) {
@@ -191,7 +191,7 @@ int body(int argc, char** argv) {
   const bool searched = search_heading || args_search;
   if (searched) {
     const pl::Scan raw = ds.load_scan(i0);
-    pl::client::PoseSearch ps;
+    pl::registration::PoseSearch ps;
     if (search_heading) ps.yaw_range_deg = 180.0;
     if (!loc.start_near(start, t0, odometry.get(), raw, ds.rings(raw), ps))
       throw Error("--init " + init + ": the first scan registers to the map nowhere within " + std::to_string(ps.radius_m) +

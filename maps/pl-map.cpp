@@ -17,6 +17,7 @@
 #include "pl/maps/loam.hpp"
 #include "pl/maps/loop_closure.hpp"
 #include "pl/maps/map_builder.hpp"
+#include "pl/registration/normals.hpp"
 #include "pl/maps/pose_graph.hpp"
 #include "pl/maps/push.hpp"
 #include "pl/schema/store.hpp"
@@ -295,7 +296,7 @@ int cmd_tile(const pl::Args& a) {
 
   std::vector<float> intensity;
   pl::Points3d pts = pl::voxel_downsample(cloud.points, cloud.intensity, voxel, intensity);
-  auto normals = pl::maps::estimate_normals(pts, radius);
+  auto normals = pl::registration::estimate_normals(pts, radius);
   pl::TileGrid grid(tile_size);
   auto tiles = pl::maps::cut_into_tiles(pts, normals, intensity, grid);
 

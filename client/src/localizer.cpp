@@ -89,7 +89,7 @@ ScanReport Localizer::process_prepared(double t, const std::vector<Eigen::Vector
   r.map_points = map_->points();
 
   t0 = now_ms();
-  r.icp = register_scan(*map_, points, r.predicted, cfg_.icp);
+  r.icp = registration::register_scan(map_->points_map(), points, r.predicted, cfg_.icp);
   r.register_ms = now_ms() - t0;
   for (int i = 0; i < 3; ++i) r.position_sigma[i] = std::sqrt(std::max(0.0, r.icp.covariance(i, i)));
 
@@ -131,65 +131,17 @@ ScanReport Localizer::process_prepared(double t, const std::vector<Eigen::Vector
   return r;
 }
 
-bool search_pose(const std::vector<RoiMap::TileRef>& tiles, double tile_size, const RoiMap& fine,
-                 const std::vector<Eigen::Vector3f>& scan, const Eigen::Isometry3d& guess, const PoseSearch& search,
-                 const IcpConfig& icp, Eigen::Isometry3d& pose_out) {
-  RoiMapConfig coarse_cfg;
-  coarse_cfg.cell_m = 2.0;
-  RoiMap coarse(tile_size, guess.translation(), coarse_cfg);
-  coarse.update(tiles);
-  IcpConfig wide = icp;
-  wide.max_pair_m = 2.0;
-  wide.kernel_start_m = 2.0;
-  wide.kernel_m = 0.5;
-  wide.max_iterations = 12;
-  // Every seed against the coarse map, with at most 400 of the scan's points (evenly taken): the
-  // seeds only have to find the right basin; the best five are refined with the whole scan.
-  std::vector<Eigen::Vector3f> sparse;
-  const std::size_t stride = std::max<std::size_t>(1, scan.size() / 400);
-  for (std::size_t i = 0; i < scan.size(); i += stride) sparse.push_back(scan[i]);
-  struct Candidate {
-    Eigen::Isometry3d pose;
-    double share;
-  };
-  std::vector<Candidate> coarse_results;
-  const double yaw0 = yaw_of(guess);
-  const int np = static_cast<int>(std::floor(search.radius_m / search.position_step_m));
-  const int ny = static_cast<int>(std::floor(search.yaw_range_deg / search.yaw_step_deg));
-  for (int ix = -np; ix <= np; ++ix)
-    for (int iy = -np; iy <= np; ++iy) {
-      if (std::hypot(ix, iy) * search.position_step_m > search.radius_m + 1e-9) continue;
-      for (int k = -ny; k <= ny; ++k) {
-        const Eigen::Vector3d p = guess.translation() + search.position_step_m * Eigen::Vector3d(ix, iy, 0);
-        const Eigen::Isometry3d seed = make_pose(p.x(), p.y(), p.z(), 0, 0, yaw0 + k * search.yaw_step_deg * M_PI / 180.0);
-        const IcpResult r = register_scan(coarse, sparse, seed, wide);
-        coarse_results.push_back({r.pose, r.inlier_share / (0.05 + r.rms_m)});
-      }
-    }
-  std::sort(coarse_results.begin(), coarse_results.end(), [](const Candidate& a, const Candidate& b) { return a.share > b.share; });
-  // The best few, refined on the fine map.
-  bool found = false;
-  double best = -1;
-  for (std::size_t i = 0; i < coarse_results.size() && i < 5; ++i) {
-    const IcpResult r = register_scan(fine, scan, coarse_results[i].pose, icp);
-    if (!r.accepted) continue;
-    const double score = r.inlier_share / (0.05 + r.rms_m);
-    if (score > best) {
-      best = score;
-      pose_out = r.pose;
-      found = true;
-    }
-  }
-  return found;
-}
-
 bool Localizer::start_near(const Eigen::Isometry3d& guess, double t, const OdometryBuffer* odometry, const Scan& scan,
-                           const std::vector<std::uint16_t>& rings, const PoseSearch& search) {
+                           const std::vector<std::uint16_t>& rings, const registration::PoseSearch& search) {
   start(guess, t, odometry);
   const std::vector<Eigen::Vector3f> points = to_points(prepare_scan(scan, rings, cfg_.scan));
-  const auto tiles = tiles_(guess.translation().head<2>(), cfg_.roi_radius_m);
+  // The seeds find their basin on the same tiles in 2 m cells.
+  RoiMapConfig coarse_cfg;
+  coarse_cfg.cell_m = 2.0;
+  RoiMap coarse(tile_size_, guess.translation(), coarse_cfg);
+  coarse.update(tiles_(guess.translation().head<2>(), cfg_.roi_radius_m));
   Eigen::Isometry3d found;
-  if (!search_pose(tiles, tile_size_, *map_, points, guess, search, cfg_.icp, found)) return false;
+  if (!registration::search_pose(coarse.points_map(), map_->points_map(), points, guess, search, cfg_.icp, found)) return false;
   start(found, t, odometry);
   return true;
 }

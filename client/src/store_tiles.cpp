@@ -32,8 +32,8 @@ StoreTiles::StoreTiles(const std::string& db_path, const std::string& map, long 
 
 StoreTiles::~StoreTiles() = default;
 
-std::vector<RoiMap::TileRef> StoreTiles::near(const Eigen::Vector2d& center, double radius) {
-  std::vector<RoiMap::TileRef> out;
+std::vector<MapTile> StoreTiles::near(const Eigen::Vector2d& center, double radius) {
+  std::vector<MapTile> out;
   const TileGrid grid(tile_size_);
   for (const TileKey& key : grid.keys_in_disc(center.x(), center.y(), radius)) {
     auto it = impl_->hashes.find(key);

@@ -27,13 +27,16 @@
 #include <thread>
 #include <utility>
 
-#include "pl/client/http_client.hpp"
+#include "pl/schema/http_client.hpp"
 #include "pl/client/tile_cache.hpp"
 #include "pl/common/error.hpp"
 #include "pl/schema/store.hpp"
 #include "wire.hpp"
 
 namespace pl::client {
+using api::HttpClient;
+using api::HttpResponse;
+using api::url_encode;
 
 using Clock = std::chrono::steady_clock;
 

@@ -57,18 +57,6 @@ json parse(std::string_view body, const char* what) {
 
 }  // namespace
 
-bool is_hash(std::string_view s) {
-  return s.size() == 64 && std::all_of(s.begin(), s.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
-}
-
-bool valid_tile_size(double metres) { return metres >= kMinTileSize && metres <= kMaxTileSize; }
-
-bool valid_map_name(std::string_view name) {
-  return !name.empty() && name.size() <= 64 && std::all_of(name.begin(), name.end(), [](char c) {
-    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '-';
-  });
-}
-
 CachedManifest parse_manifest(std::string_view body, const std::string& map, std::optional<long long> pin) {
   const json j = parse(body, "the manifest");
   CachedManifest m;

@@ -13,6 +13,7 @@
 
 #include "pl/client/tile_cache.hpp"
 #include "pl/common/tile_codec.hpp"
+#include "pl/schema/api_rules.hpp"
 
 namespace pl::client::wire {
 
@@ -21,12 +22,10 @@ struct WireError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-bool is_hash(std::string_view s);  // 64 lowercase hex digits
-bool valid_map_name(std::string_view name);  // [A-Za-z0-9_.-], 1 to 64 characters
-// Tile sizes maps are made with (the server's create_map range). A tiny size from a hostile server
-// or a crafted disk cache would make a 100 m focus disc billions of keys.
-constexpr double kMinTileSize = 1.0, kMaxTileSize = 1000.0;
-bool valid_tile_size(double metres);
+// The rules both sides agree on (pl/schema/api_rules.hpp).
+using api::is_hash;
+using api::valid_map_name;
+using api::valid_tile_size;
 
 // GET /v1/maps/{map}: the manifest of `map`. The version is `pin` when given, else the map's
 // current one (a WireError when it has none). tile_size must be valid_tile_size.

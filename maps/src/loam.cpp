@@ -6,132 +6,41 @@
 // matrix well conditioned however far the sensor is from the anchor.
 #include "pl/maps/loam.hpp"
 
-#include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <numeric>
 #include <string>
-#include <unordered_set>
 
 #include "pl/common/error.hpp"
 #include "pl/common/pose.hpp"
+#include "pl/registration/cell_table.hpp"
+#include "pl/registration/gauss_newton.hpp"
+#include "pl/registration/normals.hpp"
 
 namespace pl::maps {
 namespace {
 
 using Mat6 = Eigen::Matrix<double, 6, 6>;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
-
-// Packs integer cell coordinates (21 bits each, two's complement) into one key.
-inline std::uint64_t pack_cell(std::int64_t x, std::int64_t y, std::int64_t z) {
-  constexpr std::uint64_t m = (1ull << 21) - 1;
-  return (static_cast<std::uint64_t>(x) & m) | ((static_cast<std::uint64_t>(y) & m) << 21) | ((static_cast<std::uint64_t>(z) & m) << 42);
-}
-
-struct KeyHash {
-  std::size_t operator()(std::uint64_t k) const {
-    k ^= k >> 31;
-    k *= 0x9E3779B97F4A7C15ull;
-    k ^= k >> 29;
-    return static_cast<std::size_t>(k);
-  }
-};
-
-inline std::int64_t cell_of(float v, float inv) { return static_cast<std::int64_t>(std::floor(v * inv)); }
+using registration::cell_coordinate;
+using registration::pack_cell;
 
 // Keeps the first point of every leaf (a real return, not a blend of two surfaces), in input order.
 void thin(std::vector<Eigen::Vector3f>& pts, double leaf) {
   if (!(leaf > 0) || pts.empty()) return;
   const float inv = static_cast<float>(1.0 / leaf);
-  std::unordered_set<std::uint64_t, KeyHash> seen;
-  seen.reserve(pts.size() * 2);
+  registration::CellTable<std::uint8_t> seen;
   std::size_t out = 0;
   for (std::size_t i = 0; i < pts.size(); ++i) {
     const Eigen::Vector3f& p = pts[i];
-    if (!seen.insert(pack_cell(cell_of(p.x(), inv), cell_of(p.y(), inv), cell_of(p.z(), inv))).second) continue;
-    pts[out++] = p;
+    bool fresh;
+    seen.insert(pack_cell(cell_coordinate(p.x(), inv), cell_coordinate(p.y(), inv), cell_coordinate(p.z(), inv)), 1, fresh);
+    if (fresh) pts[out++] = p;
   }
   pts.resize(out);
 }
-
-// Open addressing (linear probing, backward-shift deletion) from a packed cell key to a slot number.
-class CellTable {
- public:
-  static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
-
-  CellTable() { rehash(1024); }
-
-  std::uint32_t find(std::uint64_t key) const {
-    for (std::size_t i = home(key);; i = (i + 1) & mask_) {
-      const Entry& e = entries_[i];
-      if (e.key == key) return e.value;
-      if (e.key == kEmpty) return kNone;
-    }
-  }
-  // The value stored under key, or `value` newly stored; `fresh` says which.
-  std::uint32_t insert(std::uint64_t key, std::uint32_t value, bool& fresh) {
-    if (2 * (used_ + 1) > entries_.size()) rehash(entries_.size() * 2);
-    std::size_t i = home(key);
-    for (; entries_[i].key != kEmpty; i = (i + 1) & mask_)
-      if (entries_[i].key == key) {
-        fresh = false;
-        return entries_[i].value;
-      }
-    entries_[i] = {key, value};
-    ++used_;
-    fresh = true;
-    return value;
-  }
-  void erase(std::uint64_t key) {
-    std::size_t i = home(key);
-    while (entries_[i].key != key) {
-      if (entries_[i].key == kEmpty) return;
-      i = (i + 1) & mask_;
-    }
-    // Backward shift: pull later entries of the probe run into the hole when their home allows it.
-    for (std::size_t j = (i + 1) & mask_;; j = (j + 1) & mask_) {
-      if (entries_[j].key == kEmpty) break;
-      const std::size_t h = home(entries_[j].key);
-      const bool movable = i <= j ? (h <= i || h > j) : (h <= i && h > j);
-      if (movable) {
-        entries_[i] = entries_[j];
-        i = j;
-      }
-    }
-    entries_[i].key = kEmpty;
-    --used_;
-  }
-  template <typename F>
-  void for_each(F&& f) const {
-    for (const Entry& e : entries_)
-      if (e.key != kEmpty) f(e.key, e.value);
-  }
-
- private:
-  static constexpr std::uint64_t kEmpty = ~0ull;  // packed keys use 63 bits
-  struct Entry {
-    std::uint64_t key;
-    std::uint32_t value;
-  };
-  std::vector<Entry> entries_;
-  std::size_t mask_ = 0, used_ = 0;
-  int shift_ = 54;
-
-  std::size_t home(std::uint64_t key) const { return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> shift_); }
-  void rehash(std::size_t n) {
-    std::vector<Entry> old = std::move(entries_);
-    entries_.assign(n, Entry{kEmpty, 0});
-    mask_ = n - 1;
-    shift_ = 64 - __builtin_ctzll(n);
-    used_ = 0;
-    bool fresh;
-    for (const Entry& e : old)
-      if (e.key != kEmpty) insert(e.key, e.value, fresh);
-  }
-};
 
 // Points of one feature kind in the map frame (relative to the anchor), in cells of `cell` metres,
 // at most one point per `leaf` within a cell and `cap` points per cell. A cell's points sit together
@@ -143,10 +52,10 @@ class FeatureGrid {
         cap_(static_cast<std::uint32_t>(std::clamp(cap, 1, 255))) {}
 
   void insert(const Eigen::Vector3f& p) {
-    const auto ix = cell_of(p.x(), inv_), iy = cell_of(p.y(), inv_), iz = cell_of(p.z(), inv_);
+    const auto ix = cell_coordinate(p.x(), inv_), iy = cell_coordinate(p.y(), inv_), iz = cell_coordinate(p.z(), inv_);
     const std::uint32_t next = free_.empty() ? static_cast<std::uint32_t>(count_.size()) : free_.back();
     bool fresh;
-    const std::uint32_t c = table_.insert(pack_cell(ix, iy, iz), next, fresh);
+    const std::uint32_t c = *table_.insert(pack_cell(ix, iy, iz), next, fresh);
     if (fresh) {
       if (free_.empty()) {
         count_.push_back(0);
@@ -176,7 +85,7 @@ class FeatureGrid {
       if ((centre_[c] - at.head<2>()).squaredNorm() > r2) gone.push_back(key);
     });
     for (std::uint64_t key : gone) {
-      const std::uint32_t c = table_.find(key);
+      const std::uint32_t c = *table_.find(key);
       size_ -= count_[c];
       count_[c] = 0;
       free_.push_back(c);
@@ -194,8 +103,9 @@ class FeatureGrid {
     const auto ix = static_cast<std::int64_t>(flx), iy = static_cast<std::int64_t>(fly), iz = static_cast<std::int64_t>(flz);
     const std::int64_t sx = fx - flx < 0.5f ? -1 : 1, sy = fy - fly < 0.5f ? -1 : 1, sz = fz - flz < 0.5f ? -1 : 1;
     for (int k = 0; k < 8; ++k) {
-      const std::uint32_t c = table_.find(pack_cell(ix + ((k & 1) ? sx : 0), iy + ((k & 2) ? sy : 0), iz + ((k & 4) ? sz : 0)));
-      if (c == CellTable::kNone) continue;
+      const std::uint32_t* found = table_.find(pack_cell(ix + ((k & 1) ? sx : 0), iy + ((k & 2) ? sy : 0), iz + ((k & 4) ? sz : 0)));
+      if (!found) continue;
+      const std::uint32_t c = *found;
       const Eigen::Vector3f* pts = &pool_[static_cast<std::size_t>(c) * cap_];
       for (std::uint32_t i = 0, m = count_[c]; i < m; ++i) {
         const float d2 = (pts[i] - q).squaredNorm();
@@ -219,64 +129,18 @@ class FeatureGrid {
   float inv_, cell_, leaf2_;
   std::uint32_t cap_;
   std::size_t size_ = 0;
-  CellTable table_;
+  registration::CellTable<std::uint32_t> table_;
   std::vector<std::uint8_t> count_;     // points in each cell slot
   std::vector<Eigen::Vector2f> centre_;  // xy centre of each cell slot
   std::vector<Eigen::Vector3f> pool_;   // cap_ points a slot
   std::vector<std::uint32_t> free_;     // slots of pruned cells
 };
 
-// A scan feature paired with its line (two rows) or plane (one row): residual_i = n_i . q + d_i.
+// A scan feature (sensor frame) paired with its line or plane in the map.
 struct Match {
-  Eigen::Vector3f s;  // sensor frame
-  Eigen::Vector3f n[2];
-  float d[2];
-  int rows;
+  Eigen::Vector3f s;
+  registration::FeatureTarget target;
 };
-
-// Centroid and principal axes (eigenvalues ascending) of 5 neighbours.
-void principal_axes(const Eigen::Vector3f pts[5], Eigen::Vector3d& c, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>& es) {
-  c.setZero();
-  for (int i = 0; i < 5; ++i) c += pts[i].cast<double>();
-  c /= 5.0;
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (int i = 0; i < 5; ++i) {
-    const Eigen::Vector3d d = pts[i].cast<double>() - c;
-    cov += d * d.transpose();
-  }
-  es.computeDirect(cov);
-}
-
-// Line through the 5 points when they spread along one direction; rows: the two directions across it.
-bool fit_line(const Eigen::Vector3f pts[5], double ratio, Match& m) {
-  Eigen::Vector3d c;
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
-  principal_axes(pts, c, es);
-  const Eigen::Vector3d ev = es.eigenvalues();
-  if (!(ev(2) > ratio * ev(1))) return false;
-  for (int r = 0; r < 2; ++r) {
-    const Eigen::Vector3d n = es.eigenvectors().col(r).normalized();
-    m.n[r] = n.cast<float>();
-    m.d[r] = static_cast<float>(-n.dot(c));
-  }
-  m.rows = 2;
-  return true;
-}
-
-// Plane through the 5 points when all lie within max_dist of it.
-bool fit_plane(const Eigen::Vector3f pts[5], double max_dist, Match& m) {
-  Eigen::Vector3d c;
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
-  principal_axes(pts, c, es);
-  const Eigen::Vector3d n = es.eigenvectors().col(0).normalized();
-  if (!(es.eigenvalues()(1) > 0)) return false;  // all on one line (or one point)
-  for (int i = 0; i < 5; ++i)
-    if (std::abs(n.dot(pts[i].cast<double>() - c)) > max_dist) return false;
-  m.n[0] = n.cast<float>();
-  m.d[0] = static_cast<float>(-n.dot(c));
-  m.rows = 1;
-  return true;
-}
 
 // d scaled by f: rotation angle and translation times f (constant velocity over a fraction or a
 // multiple of an interval).
@@ -289,74 +153,29 @@ Pose scale_motion(const Pose& d, double f) {
 }
 
 
-struct Normal {
-  Mat6 H = Mat6::Zero();
-  Vec6 g = Vec6::Zero();
-  int rows = 0;
-};
-
 // Normal equations of the matches at (R, t), Cauchy-weighted, pairs beyond max_res dropped.
-Normal accumulate(const std::vector<Match>& matches, const Eigen::Matrix3f& R, const Eigen::Vector3f& t, float k2, float max_res2) {
-  Normal out;
-  Eigen::Matrix<float, 6, 6> Hf = Eigen::Matrix<float, 6, 6>::Zero();
-  Eigen::Matrix<float, 6, 1> gf = Eigen::Matrix<float, 6, 1>::Zero();
-  int block = 0;
+registration::NormalEquations accumulate(const std::vector<Match>& matches, const Eigen::Matrix3f& R, const Eigen::Vector3f& t,
+                                         float k2, float max_res2) {
+  registration::NormalEquations out;
   for (const Match& m : matches) {
     const Eigen::Vector3f qr = R * m.s;
     const Eigen::Vector3f q = qr + t;
+    const registration::FeatureTarget& f = m.target;
     float r[2], e2 = 0;
-    for (int i = 0; i < m.rows; ++i) {
-      r[i] = m.n[i].dot(q) + m.d[i];
+    for (int i = 0; i < f.rows; ++i) {
+      r[i] = f.n[i].dot(q) + f.d[i];
       e2 += r[i] * r[i];
     }
     if (e2 > max_res2) continue;
-    const float w = 1.0f / (1.0f + e2 / k2);
-    for (int i = 0; i < m.rows; ++i) {
-      Eigen::Matrix<float, 6, 1> J;
-      J.head<3>() = m.n[i];
-      J.tail<3>() = qr.cross(m.n[i]);
-      Hf.noalias() += (w * J) * J.transpose();
-      gf.noalias() += (w * r[i]) * J;
-    }
-    out.rows += m.rows;
-    if (++block == 256) {  // float sums in blocks, flushed to double
-      out.H += Hf.cast<double>();
-      out.g += gf.cast<double>();
-      Hf.setZero();
-      gf.setZero();
-      block = 0;
-    }
+    const float w = registration::cauchy_weight(e2, k2);
+    for (int i = 0; i < f.rows; ++i) out.add(f.n[i], qr, r[i], w);
   }
-  out.H += Hf.cast<double>();
-  out.g += gf.cast<double>();
   return out;
 }
 
-constexpr double kLever = 10.0;  // rotations weighed as arcs at this radius when comparing directions
-
-// Gauss-Newton step; directions weaker than ratio * the strongest are left alone (and reported).
-Vec6 solve_step(const Normal& n, double ratio, bool& degenerate) {
-  Vec6 s;
-  s << 1, 1, 1, 1 / kLever, 1 / kLever, 1 / kLever;
-  const Mat6 Hs = s.asDiagonal() * n.H * s.asDiagonal();
-  const Vec6 gs = s.cwiseProduct(n.g);
-  Eigen::SelfAdjointEigenSolver<Mat6> es(Hs);
-  const Vec6 ev = es.eigenvalues();
-  const double floor = ratio * ev(5);
-  Vec6 step = Vec6::Zero();
-  degenerate = false;
-  for (int i = 0; i < 6; ++i) {
-    if (!(ev(i) > floor) || !(ev(i) > 0)) {
-      degenerate = true;
-      continue;
-    }
-    const Vec6 v = es.eigenvectors().col(i);
-    step -= (v.dot(gs) / ev(i)) * v;
-  }
-  return s.cwiseProduct(step);
-}
-
 }  // namespace
+
+// An edge pick}  // namespace
 
 // An edge pick suppresses its ring neighbours up to the first gap longer than this (squared, m^2):
 // across a gap the next point belongs to another surface and may be an edge of its own.
@@ -519,13 +338,13 @@ struct LoamOdometry::Impl {
     Match m;
     int ne = 0, np = 0;
     for (const auto& s : f.edges) {
-      if (edges.nearest5(R * s + t, max_d2, nb) < 5 || !fit_line(nb, cfg.line_ratio, m)) continue;
+      if (edges.nearest5(R * s + t, max_d2, nb) < 5 || !registration::fit_line(nb, 5, cfg.line_ratio, m.target)) continue;
       m.s = s;
       matches.push_back(m);
       ++ne;
     }
     for (const auto& s : f.planes) {
-      if (planes.nearest5(R * s + t, max_d2, nb) < 5 || !fit_plane(nb, cfg.plane_fit_m, m)) continue;
+      if (planes.nearest5(R * s + t, max_d2, nb) < 5 || !registration::fit_plane(nb, 5, cfg.plane_fit_m, m.target)) continue;
       m.s = s;
       matches.push_back(m);
       ++np;
@@ -603,9 +422,9 @@ LoamFrame LoamOdometry::add(const Scan& scan, const std::vector<std::uint16_t>& 
       const Eigen::Matrix3d R_before = R;
       const Eigen::Vector3d t_before = tr;
       for (int it = 0; it < std::max(1, cfg.iterations_per_match); ++it) {
-        const Normal n = accumulate(m.matches, R.cast<float>(), tr.cast<float>(), k2, max_res2);
-        if (n.rows < cfg.min_correspondences) break;
-        const Vec6 step = solve_step(n, cfg.degenerate_ratio, degenerate);
+        registration::NormalEquations n = accumulate(m.matches, R.cast<float>(), tr.cast<float>(), k2, max_res2);
+        if (n.rows() < cfg.min_correspondences) break;
+        const Vec6 step = registration::solve_step_truncated(n.H(), n.g(), cfg.degenerate_ratio, degenerate);
         if (!step.allFinite()) break;
         R = rotation_from_vector(step.tail<3>()) * R;
         tr += step.head<3>();
@@ -630,13 +449,13 @@ LoamFrame LoamOdometry::add(const Scan& scan, const std::vector<std::uint16_t>& 
     }
     if (matched) {
       out.pose = solved;
-      const Normal n = accumulate(m.matches, solved.linear().cast<float>(), tr.cast<float>(), k2, max_res2);
+      registration::NormalEquations n = accumulate(m.matches, solved.linear().cast<float>(), tr.cast<float>(), k2, max_res2);
       Mat6 A = Mat6::Zero();
       A.block<3, 3>(0, 0) = solved.linear();
       A.block<3, 3>(3, 3) = solved.linear();
-      const Mat6 info = A.transpose() * n.H * A;
+      const Mat6 info = A.transpose() * n.H() * A;
       out.information = 0.5 * (info + info.transpose());  // exactly symmetric (float sums are not)
-      solve_step(n, cfg.degenerate_ratio, degenerate);
+      registration::solve_step_truncated(n.H(), n.g(), cfg.degenerate_ratio, degenerate);
       out.degenerate = degenerate;
     } else {
       out.degenerate = true;  // the prediction is kept, with no information, and stays out of the map

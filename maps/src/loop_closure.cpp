@@ -6,18 +6,20 @@
 #include <cmath>
 #include <memory>
 
-#include "pl/client/icp.hpp"
-#include "pl/client/localizer.hpp"
-#include "pl/client/roi_map.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/voxel.hpp"
 #include "pl/maps/map_builder.hpp"
+#include "pl/registration/icp.hpp"
+#include "pl/registration/normals.hpp"
+#include "pl/registration/point_map.hpp"
+#include "pl/registration/pose_search.hpp"
 
 namespace pl::maps {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
-constexpr double kTileSize = 20.0;
+constexpr double kFineCellM = 0.5;    // the local map's cells for ICP (pairs up to 0.5 m)
+constexpr double kCoarseCellM = 2.0;  // and for the seeds of a search by place
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -26,8 +28,13 @@ double median(std::vector<double> v) {
 }
 
 // The keyframes within `submap_m` of path of `center`, merged in its frame at the current estimate,
-// with normals, as tiles.
-std::vector<client::MapTile> local_map(const PoseList& estimate,
+// with normals.
+struct LocalMap {
+  Points3d points;
+  std::vector<Eigen::Vector3f> normals;
+};
+
+LocalMap local_map(const PoseList& estimate,
                                        const std::vector<double>& path, const std::vector<std::vector<Eigen::Vector3f>>& clouds,
                                        std::size_t center, const LoopClosureConfig& cfg) {
   VoxelAccumulator acc(cfg.target_voxel_m);
@@ -41,17 +48,17 @@ std::vector<client::MapTile> local_map(const PoseList& estimate,
     for (const Eigen::Vector3f& p : clouds[m]) acc.add(rel * p.cast<double>(), 0.0f);
   }
   std::vector<float> intensity;
-  const Points3d points = acc.centroids(intensity);
-  const std::vector<Eigen::Vector3f> normals = estimate_normals(points, cfg.normal_radius_m);
-  std::vector<client::MapTile> tiles;
-  for (auto& [key, cloud] : cut_into_tiles(points, normals, {}, TileGrid(kTileSize))) {
-    client::MapTile t;
-    t.key = key;
-    t.hash = std::to_string(key.tx) + "," + std::to_string(key.ty);
-    t.cloud = std::make_shared<const TileCloud>(std::move(cloud));
-    tiles.push_back(std::move(t));
-  }
-  return tiles;
+  LocalMap out;
+  out.points = acc.centroids(intensity);
+  out.normals = registration::estimate_normals(out.points, cfg.normal_radius_m);
+  return out;
+}
+
+// The local map in `cell_m` cells, anchored on that cell grid at the height of `near`.
+std::unique_ptr<registration::PointMap> point_map(const LocalMap& local, double cell_m, const Eigen::Vector3d& near) {
+  auto map = std::make_unique<registration::PointMap>(Eigen::Vector3d(0, 0, std::floor(near.z() / cell_m) * cell_m), cell_m);
+  map->add(0, local.points, local.normals);
+  return map;
 }
 
 std::vector<Eigen::Vector3f> thin(const std::vector<Eigen::Vector3f>& cloud, double voxel) {
@@ -63,7 +70,7 @@ std::vector<Eigen::Vector3f> thin(const std::vector<Eigen::Vector3f>& cloud, dou
   return out;
 }
 
-Information6 edge_information(const client::IcpResult& r, const LoopClosureConfig& cfg) {
+Information6 edge_information(const registration::IcpResult& r, const LoopClosureConfig& cfg) {
   // ICP perturbs the pose on the left in the match's frame (R' = exp(w) R, t' = t + v); the graph's
   // loop residual is a perturbation on the right, in the query's frame: (R^T v, R^T w).
   Information6 a = Information6::Zero();
@@ -99,13 +106,11 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
   refresh();
   const PoseList before = estimate;
 
-  client::IcpConfig icp;
+  registration::IcpConfig icp;
   icp.max_pair_m = 0.5;
   icp.kernel_m = 0.2;
   icp.kernel_start_m = 1.0;
   icp.max_iterations = 40;
-  client::RoiMapConfig roi_cfg;
-  roi_cfg.cell_m = 0.5;
 
   struct Accepted {
     std::size_t a, b;
@@ -169,26 +174,26 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
       rec.match = p.match;
       rec.by_descriptor = p.by_descriptor;
       rec.descriptor_distance = p.descriptor_distance;
-      const std::vector<client::MapTile> tiles = local_map(estimate, path, clouds, p.match, cfg);
-      client::RoiMap fine(kTileSize, Eigen::Vector3d::Zero(), roi_cfg);
-      fine.update(tiles);
-      client::IcpResult r;
+      const LocalMap local = local_map(estimate, path, clouds, p.match, cfg);
+      const auto fine = point_map(local, kFineCellM, Eigen::Vector3d::Zero());
+      registration::IcpResult r;
       bool registered = false;
       if (!p.by_descriptor) {
-        r = client::register_scan(fine, source, p.guess, icp);
+        r = registration::register_scan(*fine, source, p.guess, icp);
         registered = r.accepted;
         if (!registered) rec.reason = std::string("icp: ") + r.reject_reason;
       } else {
-        client::PoseSearch search;
+        registration::PoseSearch search;
         search.radius_m = cfg.descriptor_search_m;
         search.position_step_m = 2.0;
         search.yaw_range_deg = cfg.descriptor_search_deg;
         search.yaw_step_deg = 7.5;
         Eigen::Isometry3d found;
-        if (!client::search_pose(tiles, kTileSize, fine, source, p.guess, search, icp, found)) {
+        const auto coarse = point_map(local, kCoarseCellM, p.guess.translation());
+        if (!registration::search_pose(*coarse, *fine, source, p.guess, search, icp, found)) {
           rec.reason = "no registration found";
         } else {
-          r = client::register_scan(fine, source, found, icp);
+          r = registration::register_scan(*fine, source, found, icp);
           registered = r.accepted;
           if (!registered) rec.reason = std::string("icp: ") + r.reject_reason;
         }

@@ -60,52 +60,6 @@ MapCloud build_map_from_poses(const Dataset& ds, const Trajectory& poses, const 
 }
 
 
-std::vector<Eigen::Vector3f> estimate_normals(const Points3d& points, double radius, std::vector<float>* planarity) {
-  if (!(radius > 0.0)) throw Error("the normal radius must be positive");
-  const double inv = 1.0 / radius, r2 = radius * radius;
-  auto cell = [inv](const Eigen::Vector3d& p) { return voxel_index(p, inv); };
-  // Points grouped by cell: cell -> [begin, end) into `order`.
-  std::unordered_map<VoxelIndex, std::vector<std::uint32_t>, VoxelIndexHash> cells;
-  cells.reserve(points.size() / 4 + 1);
-  for (std::uint32_t i = 0; i < points.size(); ++i) cells[cell(points[i])].push_back(i);
-  std::vector<Eigen::Vector3f> normals(points.size(), Eigen::Vector3f::UnitZ());
-  if (planarity) planarity->assign(points.size(), 0.0f);
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const Eigen::Vector3d& p = points[i];
-    auto c = cell(p);
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
-    int n = 0;
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz) {
-          auto it = cells.find({c[0] + dx, c[1] + dy, c[2] + dz});
-          if (it == cells.end()) continue;
-          for (std::uint32_t j : it->second) {
-            Eigen::Vector3d d = points[j] - p;  // relative to the point: no precision lost far from the origin
-            if (d.squaredNorm() > r2) continue;
-            sum += d;
-            outer += d * d.transpose();
-            ++n;
-          }
-        }
-    if (n < 5) continue;
-    Eigen::Vector3d mean = sum / n;
-    Eigen::Matrix3d cov = outer / n - mean * mean.transpose();
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
-    es.computeDirect(cov);
-    Eigen::Vector3d nrm = es.eigenvectors().col(0);
-    double s = std::abs(nrm.z()) > 0.1 ? nrm.z() : (std::abs(nrm.x()) >= std::abs(nrm.y()) ? nrm.x() : nrm.y());
-    if (s < 0) nrm = -nrm;
-    normals[i] = nrm.normalized().cast<float>();
-    if (planarity) {
-      double l1 = es.eigenvalues()(1);
-      (*planarity)[i] = l1 > 0 ? static_cast<float>(1.0 - es.eigenvalues()(0) / l1) : 0.0f;
-    }
-  }
-  return normals;
-}
-
 std::map<TileKey, TileCloud> cut_into_tiles(const Points3d& points, const std::vector<Eigen::Vector3f>& normals,
                                             const std::vector<float>& intensity, const TileGrid& grid) {
   if (!normals.empty() && normals.size() != points.size()) throw Error("cut_into_tiles: one normal per point expected");

@@ -4,7 +4,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
-#include "pl/client/http_client.hpp"
+#include "pl/schema/http_client.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/progress.hpp"
 #include "pl/schema/store.hpp"
@@ -15,7 +15,7 @@ namespace pl::maps {
 
 namespace {
 
-json expect(const client::HttpResponse& r, std::initializer_list<int> ok, const std::string& what) {
+json expect(const api::HttpResponse& r, std::initializer_list<int> ok, const std::string& what) {
   for (int s : ok)
     if (r.status == s) return r.body.empty() ? json() : json::parse(r.body, nullptr, false);
   std::string why = r.body;
@@ -34,9 +34,9 @@ PushReport push_version(const PushOptions& o) {
   if (!version) throw Error(o.db + ": map " + o.map + " has no version " + std::to_string(o.version));
   auto tiles = store.list_tiles(o.map, o.version);
 
-  client::HttpClient http(o.server, 60.0);
+  api::HttpClient http(o.server, 60.0);
   std::map<std::string, std::string> auth = {{"Authorization", "Bearer " + o.token}};
-  const std::string base = "/v1/maps/" + client::url_encode(o.map);
+  const std::string base = "/v1/maps/" + api::url_encode(o.map);
   auto manifest = http.get(base, auth);
   if (manifest.status == 404) {
     json create = {{"name", o.map},

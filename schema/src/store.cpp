@@ -3,6 +3,8 @@
 // PRAGMAs and savepoints whose text comes from this file (integers and fixed identifiers).
 #include "pl/schema/store.hpp"
 
+#include "pl/schema/api_rules.hpp"
+
 #include <openssl/evp.h>
 
 #include <cmath>
@@ -50,24 +52,7 @@ std::int64_t pragma_int(sqlite3* db, const std::string& path, const char* sql) {
   return st.step() ? st.int64(0) : 0;
 }
 
-bool valid_map_name(const std::string& name) {
-  if (name.empty() || name.size() > 64) return false;
-  for (char c : name) {
-    bool ok =
-        (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '.' || c == '-';
-    if (!ok) return false;
-  }
-  return true;
-}
-
 std::string num(std::int64_t v) { return std::to_string(v); }
-
-bool is_hash(const std::string& s) {
-  if (s.size() != 64) return false;
-  for (char c : s)
-    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
-  return true;
-}
 
 // "2024-05-01T10:11:12.345Z", as strftime('%Y-%m-%dT%H:%M:%fZ') writes every timestamp.
 bool is_timestamp(const std::string& s) {
@@ -131,7 +116,7 @@ class Row {
   }
   std::string hash(int col, const char* column) const {
     std::string s = text(col, column);
-    if (!is_hash(s)) bad(column, "is not a SHA-256 hash (64 lowercase hex digits)");
+    if (!api::is_hash(s)) bad(column, "is not a SHA-256 hash (64 lowercase hex digits)");
     return s;
   }
   VersionState state(int col, const char* column) const {
@@ -172,7 +157,7 @@ MapInfo read_map(const Stmt& st, const std::string& path) {
   MapInfo m;
   m.id = row.integer(0, "id");
   m.name = row.text(1, "name");
-  if (!valid_map_name(m.name)) row.bad("name", "is not a valid map name");
+  if (!api::valid_map_name(m.name)) row.bad("name", "is not a valid map name");
   m.origin = GeoPoint{row.number(2, "origin_lat", -90, 90), row.number(3, "origin_lon", -180, 180),
                       row.number(4, "origin_alt")};
   m.tile_size = row.positive(5, "tile_size");
@@ -185,7 +170,7 @@ MapInfo read_map(const Stmt& st, const std::string& path) {
 }
 
 std::optional<MapInfo> find_map_row(sqlite3* db, const std::string& path, const std::string& name) {
-  if (!valid_map_name(name)) return std::nullopt;
+  if (!api::valid_map_name(name)) return std::nullopt;
   Stmt st(db, path, (std::string(kMapColumns) + "WHERE name = ?1").c_str());
   st.bind_text(1, name);
   if (!st.step()) return std::nullopt;
@@ -193,7 +178,7 @@ std::optional<MapInfo> find_map_row(sqlite3* db, const std::string& path, const 
 }
 
 std::optional<std::int64_t> find_map_id(sqlite3* db, const std::string& path, const std::string& name) {
-  if (!valid_map_name(name)) return std::nullopt;
+  if (!api::valid_map_name(name)) return std::nullopt;
   Stmt st(db, path, "SELECT id FROM maps WHERE name = ?1");
   st.bind_text(1, name);
   if (!st.step()) return std::nullopt;
@@ -640,7 +625,7 @@ int Store::schema_version() const {
 
 MapInfo Store::create_map(const std::string& name, const GeoPoint& origin, double tile_size, double voxel_size) {
   sqlite3* db = handle(db_, path_);
-  if (!valid_map_name(name))
+  if (!api::valid_map_name(name))
     throw Error(path_ + ": invalid map name \"" + name + "\": use 1 to 64 of A-Z a-z 0-9 _ . -");
   if (!(origin.lat_deg >= -90 && origin.lat_deg <= 90) || !(origin.lon_deg >= -180 && origin.lon_deg <= 180) ||
       !std::isfinite(origin.alt_m))

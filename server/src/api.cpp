@@ -17,6 +17,7 @@
 #include "pl/common/text.hpp"
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
+#include "pl/schema/api_rules.hpp"
 #include "pl/schema/store.hpp"
 
 using nlohmann::json;
@@ -213,10 +214,6 @@ std::int32_t parse_tile_index(const std::string& s) {
   return static_cast<std::int32_t>(v);
 }
 
-bool is_hash(const std::string& s) {
-  return s.size() == 64 && std::all_of(s.begin(), s.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)) || (c >= 'a' && c <= 'f'); });
-}
-
 std::string tile_url(const std::string& map, std::int64_t v, const TileKey& k) {
   return "/v1/maps/" + map + "/versions/" + std::to_string(v) + "/tiles/" + std::to_string(k.tx) + "/" + std::to_string(k.ty);
 }
@@ -351,7 +348,7 @@ struct Api::Impl {
       const json& o = j.at("origin");
       GeoPoint origin{o.at("lat").get<double>(), o.at("lon").get<double>(), o.value("alt", 0.0)};
       double tile = j.value("tile_size", 20.0), voxel = j.value("voxel_size", 0.2);
-      if (!(tile >= 1.0 && tile <= 1000.0) || !(voxel > 0.0 && voxel <= 5.0)) fail(400, "tile_size must be in [1, 1000] m and voxel_size in (0, 5] m");
+      if (!api::valid_tile_size(tile) || !(voxel > 0.0 && voxel <= 5.0)) fail(400, "tile_size must be in [1, 1000] m and voxel_size in (0, 5] m");
       if (std::abs(origin.lat_deg) > 90 || std::abs(origin.lon_deg) > 180) fail(400, "origin lat must be in [-90, 90] and lon in [-180, 180]");
       if (db().find_map(name)) fail(409, "a map named \"" + name + "\" exists already");
       store::MapInfo m;
@@ -399,7 +396,7 @@ struct Api::Impl {
     bool staged = check_reader(req);
     auto m = need_map(name);
     double x = query_number(t, "x", true, 0), y = query_number(t, "y", true, 0), r = query_number(t, "radius", true, 0);
-    if (!(r >= 0 && r <= 5000)) fail(400, "radius must be between 0 and 5000 m");
+    if (!(r >= 0 && r <= api::kMaxRoiRadiusM)) fail(400, "radius must be between 0 and 5000 m");
     std::int64_t version = 0;
     if (t.query.count("version")) {
       version = need_version(m, parse_version(t.query.at("version")), staged).number;
@@ -411,7 +408,7 @@ struct Api::Impl {
     if (t.query.count("have"))
       for (auto h : split_fields(t.query.at("have"), ",")) {
         std::string hs(h);
-        if (!is_hash(hs)) fail(400, "have= takes comma-separated tile hashes (64 hex digits)");
+        if (!api::is_hash(hs)) fail(400, "have= takes comma-separated tile hashes (64 hex digits)");
         have.insert(hs);
       }
     TileGrid grid(m.tile_size);
@@ -581,7 +578,7 @@ struct Api::Impl {
     if (s.size() == 3 && s[1] == "blobs") {
       if (only(get, "/v1/blobs/{hash}", kReadOnly)) return options(kReadOnly);
       check_reader(req);
-      if (!is_hash(s[2])) fail(400, "a blob is named by its SHA-256 (64 lowercase hex digits)");
+      if (!api::is_hash(s[2])) fail(400, "a blob is named by its SHA-256 (64 lowercase hex digits)");
       return blob_response(req, s[2], "/v1/blobs/{hash}");
     }
     if (s.size() < 2 || s[1] != "maps") fail(404, "no such resource: " + req.target);

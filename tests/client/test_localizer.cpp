@@ -1,7 +1,7 @@
-// The localizer's parts and the whole of it: the ROI map's voxel hash against brute force, encoder
-// odometry, the steady-state filter's gain and its correction at the scan's time, point-to-plane ICP
-// on synthetic scenes (accuracy, moving objects, degenerate geometry), the start-up search, and
-// pl-localize end to end over HTTP on a simulated drive (accuracy, the server killed mid-drive).
+// The localizer's parts and the whole of it: tiles entering and leaving the ROI map, encoder
+// odometry, the steady-state filter's gain and its correction at the scan's time, the start-up
+// search over tiles, and pl-localize end to end over HTTP on a simulated drive (accuracy, the server
+// killed mid-drive). Registration itself is tested in tests/registration.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
@@ -17,130 +17,41 @@
 #include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/pose.hpp"
+#include "scene.hpp"
 #include "server_process.hpp"
 #include "test_util.hpp"
 
 namespace {
 
+using pl::client::MapTile;
 using pl::client::RoiMap;
-using TileRef = RoiMap::TileRef;
+using pl::test::scan_of;
+using pl::test::street;
+using pl::test::Surface;
 
 // --- synthetic scenes -----------------------------------------------------------------------------
 
-struct Surface {
-  Eigen::Vector3d origin, u, v;  // a rectangle origin + a u + b v, a, b in [0, 1]
-};
-
-// A street: ground, two building fronts with doorways and bays, a few boxes (parked cars, kiosks)
-// and poles, sampled every `step` metres, with normals.
-std::vector<Surface> street(bool with_cross_structure = true) {
-  std::vector<Surface> s;
-  s.push_back({{-60, -12, 0}, {120, 0, 0}, {0, 24, 0}});  // ground
-  for (double side : {-8.0, 8.0})
-    for (double x = -60; x < 60; x += 12) {
-      const double depth = std::fmod(std::abs(x), 24.0) < 1 ? 1.5 : 0.0;  // bays every other block
-      s.push_back({{x, side + (side > 0 ? depth : -depth), 0}, {10, 0, 0}, {0, 0, 8}});
-      if (with_cross_structure) s.push_back({{x + 10, side, 0}, {0, side > 0 ? 3.0 : -3.0, 0}, {0, 0, 8}});  // recesses
-    }
-  if (with_cross_structure)
-    for (double x : {-35.0, -12.0, 7.0, 26.0, 44.0}) {  // boxes: parked vans
-      const double y = (static_cast<int>(x) % 2 == 0) ? 4.5 : -5.5;
-      s.push_back({{x, y, 0}, {4, 0, 0}, {0, 0, 2}});
-      s.push_back({{x, y + 1.8, 0}, {4, 0, 0}, {0, 0, 2}});
-      s.push_back({{x, y, 0}, {0, 1.8, 0}, {0, 0, 2}});
-      s.push_back({{x + 4, y, 0}, {0, 1.8, 0}, {0, 0, 2}});
-      s.push_back({{x, y, 2}, {4, 0, 0}, {0, 1.8, 0}});
-    }
-  return s;
-}
-
-std::vector<TileRef> tiles_of(const std::vector<Surface>& surfaces, double step, double tile_size,
-                              const Eigen::Vector3d& offset = Eigen::Vector3d::Zero()) {
+// The surfaces sampled every `step` metres, cut into tiles (the hash names a tile's content, as the
+// server's does).
+std::vector<MapTile> tiles_of(const std::vector<Surface>& surfaces, double step, double tile_size) {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector3f> normals;
+  pl::test::sample_surfaces(surfaces, step, points, normals);
   std::map<pl::TileKey, pl::TileCloud> tiles;
   const pl::TileGrid grid(tile_size);
-  for (const Surface& s : surfaces) {
-    const Eigen::Vector3f n = s.u.cross(s.v).normalized().cast<float>();
-    const int nu = std::max(1, static_cast<int>(s.u.norm() / step)), nv = std::max(1, static_cast<int>(s.v.norm() / step));
-    for (int i = 0; i <= nu; ++i)
-      for (int j = 0; j <= nv; ++j) {
-        const Eigen::Vector3d p = offset + s.origin + s.u * (double(i) / nu) + s.v * (double(j) / nv);
-        auto& t = tiles[grid.key_of(p.x(), p.y())];
-        t.points.push_back(p);
-        t.normals.push_back(n);
-      }
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    auto& t = tiles[grid.key_of(points[i].x(), points[i].y())];
+    t.points.push_back(points[i]);
+    t.normals.push_back(normals[i]);
   }
-  std::vector<TileRef> out;
+  std::vector<MapTile> out;
   for (auto& [key, cloud] : tiles)
     out.push_back({key, std::to_string(key.tx) + "," + std::to_string(key.ty) + "/" + std::to_string(cloud.size()),
                    std::make_shared<const pl::TileCloud>(std::move(cloud))});
   return out;
 }
 
-// A LiDAR-like scan of the surfaces from `sensor` (map frame): points every `step` metres on the
-// surfaces within `range`, in the sensor frame, with 1 cm noise.
-std::vector<Eigen::Vector3f> scan_of(const std::vector<Surface>& surfaces, const Eigen::Isometry3d& sensor,
-                                     double step, double range, unsigned seed,
-                                     const Eigen::Vector3d& offset = Eigen::Vector3d::Zero()) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> noise(0.0, 0.01);
-  std::uniform_real_distribution<double> jitter(0.0, 1.0);
-  std::vector<Eigen::Vector3f> out;
-  const Eigen::Isometry3d inv = sensor.inverse();
-  for (const Surface& s : surfaces) {
-    const int nu = std::max(1, static_cast<int>(s.u.norm() / step)), nv = std::max(1, static_cast<int>(s.v.norm() / step));
-    for (int i = 0; i < nu; ++i)
-      for (int j = 0; j < nv; ++j) {
-        const Eigen::Vector3d p = offset + s.origin + s.u * ((i + jitter(rng)) / nu) + s.v * ((j + jitter(rng)) / nv);
-        if ((p - sensor.translation()).norm() > range) continue;
-        const Eigen::Vector3d q = inv * p + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
-        out.push_back(q.cast<float>());
-      }
-  }
-  return out;
-}
-
 // --- the ROI map ----------------------------------------------------------------------------------
-
-TEST(RoiMap, NearestEqualsBruteForceWithinHalfACell) {
-  std::mt19937 rng(4);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  pl::TileCloud cloud;
-  const Eigen::Vector3d far(350000.0, -4200000.0, 120.0);  // large map coordinates stay exact
-  for (int i = 0; i < 20000; ++i) {
-    cloud.points.push_back(far + Eigen::Vector3d(40 * u(rng), 40 * u(rng), 3 * u(rng)));
-    cloud.normals.push_back(Eigen::Vector3f::UnitZ());
-  }
-  // Split into the tiles of a 20 m grid.
-  const pl::TileGrid grid(20.0);
-  std::map<pl::TileKey, pl::TileCloud> split;
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    auto& t = split[grid.key_of(cloud.points[i].x(), cloud.points[i].y())];
-    t.points.push_back(cloud.points[i]);
-    t.normals.push_back(cloud.normals[i]);
-  }
-  std::vector<TileRef> tiles;
-  for (auto& [k, c] : split) tiles.push_back({k, "h" + std::to_string(k.tx) + "_" + std::to_string(k.ty), std::make_shared<const pl::TileCloud>(c)});
-  pl::client::RoiMapConfig cfg;
-  cfg.cell_m = 1.0;
-  RoiMap map(20.0, far, cfg);
-  EXPECT_EQ(map.update(tiles), tiles.size());
-  EXPECT_EQ(map.points(), cloud.size());
-  int checked = 0;
-  for (int q = 0; q < 3000; ++q) {
-    const Eigen::Vector3d p = far + Eigen::Vector3d(40 * u(rng), 40 * u(rng), 3 * u(rng));
-    double best = 1e9;
-    for (const auto& c : cloud.points) best = std::min(best, (c - p).squaredNorm());
-    const auto nb = map.nearest((p - map.anchor()).cast<float>(), 0.25f);
-    if (best < 0.25 - 1e-4) {
-      ASSERT_NE(nb.point, nullptr);
-      EXPECT_NEAR(nb.dist2, best, 1e-4);
-      ++checked;
-    } else if (best > 0.25 + 1e-4) {
-      EXPECT_EQ(nb.point, nullptr);
-    }
-  }
-  EXPECT_GT(checked, 1000);
-}
 
 TEST(RoiMap, TilesEnterAndLeaveWithoutATrace) {
   const auto tiles = tiles_of(street(), 0.2, 20.0);
@@ -149,13 +60,13 @@ TEST(RoiMap, TilesEnterAndLeaveWithoutATrace) {
   const std::size_t all_cells = map.cells(), all_points = map.points();
   ASSERT_GT(all_cells, 1000u);
   // Keep every other tile, then bring them all back: the same cells and points as before.
-  std::vector<TileRef> half;
+  std::vector<MapTile> half;
   for (std::size_t i = 0; i < tiles.size(); i += 2) half.push_back(tiles[i]);
   EXPECT_EQ(map.update(half), tiles.size() - half.size());
   EXPECT_LT(map.cells(), all_cells);
   for (std::size_t i = 1; i < tiles.size(); i += 2) {  // no point of a dropped tile is found
     const Eigen::Vector3d p = tiles[i].cloud->points[tiles[i].cloud->size() / 2];
-    const auto nb = map.nearest((p - map.anchor()).cast<float>(), 1e-6f);
+    const auto nb = map.points_map().nearest((p - map.anchor()).cast<float>(), 1e-6f);
     EXPECT_EQ(nb.point, nullptr);
   }
   map.update(tiles);
@@ -240,66 +151,7 @@ TEST(Fusion, MomentumWithoutOdometry) {
   EXPECT_NEAR(p.translation().norm(), 5.0, 0.01);
 }
 
-// --- registration ----------------------------------------------------------------------------------
-
-TEST(Icp, RecoversAnOffsetPoseOnAStreet) {
-  const auto surfaces = street();
-  RoiMap map(20.0, Eigen::Vector3d::Zero());
-  map.update(tiles_of(surfaces, 0.2, 20.0));
-  const Eigen::Isometry3d truth = pl::make_pose(3.0, 0.5, 1.8, 0.0, 0.0, 0.1);
-  const auto scan = scan_of(surfaces, truth, 0.5, 60.0, 1);
-  ASSERT_GT(scan.size(), 2000u);
-  const Eigen::Isometry3d guess = truth * pl::make_pose(0.25, -0.2, 0.1, 0.01, -0.01, 0.05);
-  const auto r = pl::client::register_scan(map, scan, guess);
-  EXPECT_TRUE(r.accepted) << r.reject_reason;
-  EXPECT_TRUE(r.converged);
-  EXPECT_LT((r.pose.translation() - truth.translation()).norm(), 0.02);
-  EXPECT_LT(pl::rotation_angle(r.pose.inverse() * truth), 0.002);
-  EXPECT_GT(r.inlier_share, 0.9);
-}
-
-TEST(Icp, PairsFartherThanDeltaAreDropped) {
-  // A third of the scan hits things the map does not have (a truck beside the sensor, people).
-  const auto surfaces = street();
-  RoiMap map(20.0, Eigen::Vector3d::Zero());
-  map.update(tiles_of(surfaces, 0.2, 20.0));
-  const Eigen::Isometry3d truth = pl::make_pose(-5.0, -1.0, 1.8, 0, 0, -0.05);
-  auto scan = scan_of(surfaces, truth, 0.5, 60.0, 2);
-  const std::size_t static_points = scan.size();
-  std::vector<Surface> truck = {{{-8, 1.5, 0.3}, {12, 0, 0}, {0, 0, 3.5}}, {{-8, 1.5, 3.8}, {12, 0, 0}, {0, 2.5, 0}}};
-  for (int k = 0; k < 3; ++k) {
-    const auto extra = scan_of(truck, truth, 0.12, 60.0, 10 + k);
-    scan.insert(scan.end(), extra.begin(), extra.end());
-  }
-  ASSERT_GT(scan.size(), static_points * 4 / 3);
-  const auto r = pl::client::register_scan(map, scan, truth * pl::make_pose(0.2, 0.15, 0, 0, 0, 0.03));
-  EXPECT_TRUE(r.accepted) << r.reject_reason;
-  EXPECT_LT((r.pose.translation() - truth.translation()).norm(), 0.03);
-  EXPECT_LT(r.inlier_share, 0.8);  // the truck's points found no pair
-}
-
-TEST(Icp, DegenerateCorridorIsRejected) {
-  // Ground and two endless parallel walls: nothing fixes the position along the corridor.
-  std::vector<Surface> corridor = {{{-60, -6, 0}, {120, 0, 0}, {0, 12, 0}},
-                                   {{-60, -6, 0}, {120, 0, 0}, {0, 0, 6}},
-                                   {{-60, 6, 0}, {120, 0, 0}, {0, 0, 6}}};
-  RoiMap map(20.0, Eigen::Vector3d::Zero());
-  map.update(tiles_of(corridor, 0.2, 20.0));
-  const Eigen::Isometry3d truth = pl::make_pose(0, 0, 1.8);
-  const auto r = pl::client::register_scan(map, scan_of(corridor, truth, 0.5, 40.0, 3), truth);
-  EXPECT_FALSE(r.accepted);
-  EXPECT_STREQ(r.reject_reason, "degenerate geometry");
-  EXPECT_LT(r.conditioning, 0.02);
-}
-
-TEST(Icp, ScanAwayFromTheMapIsRejected) {
-  const auto surfaces = street();
-  RoiMap map(20.0, Eigen::Vector3d::Zero());
-  map.update(tiles_of(surfaces, 0.2, 20.0));
-  const Eigen::Isometry3d truth = pl::make_pose(0, 0, 1.8);
-  const auto r = pl::client::register_scan(map, scan_of(surfaces, truth, 0.5, 40.0, 4), pl::make_pose(0, 0, 30.0));
-  EXPECT_FALSE(r.accepted);
-}
+// --- start-up ------------------------------------------------------------------------------------
 
 TEST(Localizer, StartsFiveMetresAndThirtyDegreesOff) {
   const auto surfaces = street();

@@ -18,7 +18,7 @@
 #include <sstream>
 #include <thread>
 
-#include "pl/client/http_client.hpp"
+#include "pl/schema/http_client.hpp"
 #include "pl/client/tile_cache.hpp"
 #include "pl/client/tile_client.hpp"
 #include "pl/common/cloud_io.hpp"
@@ -30,7 +30,7 @@
 #include "test_util.hpp"
 
 using nlohmann::json;
-using pl::client::HttpClient;
+using pl::api::HttpClient;
 using pl::client::MapTile;
 using pl::client::TileCache;
 using pl::client::TileClient;

@@ -11,7 +11,7 @@
 #include <thread>
 
 #include "http_response.hpp"
-#include "pl/client/http_client.hpp"
+#include "pl/schema/http_client.hpp"
 #include "pl/client/tile_client.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/tile_codec.hpp"
@@ -146,7 +146,7 @@ TEST(Wire, TileBytesAreCheckedAgainstTheirHashBeforeTheyAreDecoded) {
 TEST(Wire, AnAnswerLargerThanTheLimitIsRefusedWithoutHoldingIt) {
   // Declares 2 GiB and sends a little: the client refuses on the header, never allocating it.
   HostileServer server("HTTP/1.1 200 OK\r\nContent-Length: 2147483648\r\n\r\nDRACO");
-  pl::client::HttpClient http(server.url(), 5.0);
+  pl::api::HttpClient http(server.url(), 5.0);
   try {
     http.get("/v1/blobs/" + kHash);
     FAIL() << "accepted a 2 GiB answer";

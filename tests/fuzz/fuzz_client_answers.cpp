@@ -49,8 +49,8 @@ void tile(std::string_view bytes, const std::string& hash) {
 // a smaller limit is used to reach the limit's code), then its body as the client would use it.
 void http_answer(std::string_view in) {
   constexpr std::size_t kLimit = 4096;
-  pl::client::ResponseParser parser;
-  pl::client::limit_response_parser(parser, kLimit);
+  pl::api::ResponseParser parser;
+  pl::api::limit_response_parser(parser, kLimit);
   boost::beast::error_code ec;
   // As HttpClient reads: the header on its own, the declared length checked, then the rest eagerly.
   std::size_t used = pl::fuzz::feed(parser, in, true, ec);
@@ -59,13 +59,13 @@ void http_answer(std::string_view in) {
     parser.put_eof(ec);
   }
   if (ec) return;  // HttpClient throws pl::Error with ec's message: the tile client backs off
-  pl::client::admit_response_body(parser, kLimit, ec);
+  pl::api::admit_response_body(parser, kLimit, ec);
   if (ec) return;
   parser.eager(true);
   pl::fuzz::feed(parser, in.substr(used), false, ec);
   if (!ec && !parser.is_done()) parser.put_eof(ec);
   if (ec) return;
-  pl::client::HttpResponse res = pl::client::to_http_response(parser.release());
+  pl::api::HttpResponse res = pl::api::to_http_response(parser.release());
   if (res.body.size() > kLimit) std::abort();
   if (res.status == 200) {
     roi(res.body);

@@ -9,6 +9,7 @@
 #include "pl/common/cloud_io.hpp"
 #include "pl/common/error.hpp"
 #include "pl/maps/map_builder.hpp"
+#include "pl/registration/normals.hpp"
 #include "pl/schema/store.hpp"
 #include "server_process.hpp"
 #include "test_util.hpp"
@@ -42,14 +43,14 @@ TEST(Maps, NormalsOfPlanesFarFromTheOrigin) {
       pts.push_back(offset + Eigen::Vector3d(0.2 * i, 10.0, 0.2 * j + 0.5));          // a wall facing y
     }
   std::vector<float> planarity;
-  auto n = pl::maps::estimate_normals(pts, 0.6, &planarity);
+  auto n = pl::registration::estimate_normals(pts, 0.6, &planarity);
   for (std::size_t k = 0; k < pts.size(); k += 2) {
     EXPECT_NEAR(n[k].z(), 1.0f, 1e-4f) << k;  // oriented up
     EXPECT_NEAR(std::abs(n[k + 1].y()), 1.0f, 1e-4f) << k;
     EXPECT_GT(planarity[k], 0.99f);
   }
   pl::Points3d lonely = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(5, 5, 5)};
-  EXPECT_EQ(pl::maps::estimate_normals(lonely, 0.6)[0], Eigen::Vector3f::UnitZ());
+  EXPECT_EQ(pl::registration::estimate_normals(lonely, 0.6)[0], Eigen::Vector3f::UnitZ());
 }
 
 TEST(Maps, CutIntoTilesKeepsEveryPointInItsHalfOpenTile) {

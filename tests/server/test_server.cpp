@@ -14,7 +14,7 @@
 #include <thread>
 #include <unordered_map>
 
-#include "pl/client/http_client.hpp"
+#include "pl/schema/http_client.hpp"
 #include "pl/common/cloud_io.hpp"
 #include "pl/common/text.hpp"
 #include "pl/common/tile_codec.hpp"
@@ -25,7 +25,7 @@
 #include "test_util.hpp"
 
 using nlohmann::json;
-using pl::client::HttpClient;
+using pl::api::HttpClient;
 using pl::test::ServerProcess;
 using pl::test::TempDir;
 
@@ -39,7 +39,7 @@ using pl::test::street_cloud;
 
 std::map<std::string, std::string> bearer(const std::string& token) { return {{"Authorization", "Bearer " + token}}; }
 
-json body_json(const pl::client::HttpResponse& r) { return json::parse(r.body); }
+json body_json(const pl::api::HttpResponse& r) { return json::parse(r.body); }
 
 }  // namespace
 
@@ -230,7 +230,7 @@ TEST(Server, BadInputGetsTheRightStatusAndAJsonError) {
   MapFixture f;
   ServerProcess server(f.db, f.token_args());
   HttpClient http(server.url());
-  auto expect = [&](const pl::client::HttpResponse& r, int status, const std::string& words) {
+  auto expect = [&](const pl::api::HttpResponse& r, int status, const std::string& words) {
     EXPECT_EQ(r.status, status) << r.body;
     json j = json::parse(r.body, nullptr, false);
     ASSERT_FALSE(j.is_discarded()) << r.body;

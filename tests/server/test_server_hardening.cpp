@@ -18,7 +18,7 @@
 #include <thread>
 
 #include "map_fixture.hpp"
-#include "pl/client/http_client.hpp"
+#include "pl/schema/http_client.hpp"
 #include "pl/common/text.hpp"
 #include "pl/common/tile_codec.hpp"
 #include "pl/schema/store.hpp"
@@ -26,7 +26,7 @@
 #include "test_util.hpp"
 
 using nlohmann::json;
-using pl::client::HttpClient;
+using pl::api::HttpClient;
 using pl::test::MapFixture;
 using pl::test::ServerProcess;
 

@@ -12,10 +12,11 @@
 #include <vector>
 
 #include "pl/client/fusion.hpp"
-#include "pl/client/icp.hpp"
 #include "pl/client/odometry.hpp"
 #include "pl/client/roi_map.hpp"
 #include "pl/common/scan.hpp"
+#include "pl/registration/icp.hpp"
+#include "pl/registration/pose_search.hpp"
 
 namespace pl::client {
 
@@ -34,8 +35,8 @@ struct LocalizerConfig {
     c.cell_m = 0.5;  // pairs within 0.25 m found exactly, up to 0.5 m approximately
     return c;
   }();
-  IcpConfig icp = [] {
-    IcpConfig c;
+  registration::IcpConfig icp = [] {
+    registration::IcpConfig c;
     c.kernel_m = 0.3;
     c.max_iterations = 50;
     return c;
@@ -55,7 +56,7 @@ struct ScanReport {
   double t = 0;
   Eigen::Isometry3d predicted = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d fused = Eigen::Isometry3d::Identity();  // the pose reported for the scan
-  IcpResult icp;
+  registration::IcpResult icp;
   bool fused_lidar = false;  // the registration was accepted and fused
   Health health = Health::Ok;
   std::string note;          // why degraded or lost
@@ -68,13 +69,7 @@ struct ScanReport {
 };
 
 // Tiles around a point: the ROI map's source (the tile client over HTTP, or a store in benchmarks).
-using TileProvider = std::function<std::vector<RoiMap::TileRef>(const Eigen::Vector2d& center, double radius)>;
-
-// The grid of seeds search_pose tries around a rough pose.
-struct PoseSearch {
-  double radius_m = 6.0, position_step_m = 2.0;
-  double yaw_range_deg = 45.0, yaw_step_deg = 15.0;
-};
+using TileProvider = std::function<std::vector<MapTile>(const Eigen::Vector2d& center, double radius)>;
 
 class Localizer {
  public:
@@ -97,7 +92,7 @@ class Localizer {
   // Start-up from a rough pose: search_pose over the tiles around it with the first scan, then start.
   // Returns false (and starts at the guess) when the search finds nothing.
   bool start_near(const Eigen::Isometry3d& guess, double t, const OdometryBuffer* odometry, const Scan& scan,
-                  const std::vector<std::uint16_t>& rings, const PoseSearch& search = {});
+                  const std::vector<std::uint16_t>& rings, const registration::PoseSearch& search = {});
 
  private:
   LocalizerConfig cfg_;
@@ -109,15 +104,6 @@ class Localizer {
   bool lost_ = false;
   std::vector<double> recent_share_, recent_rms_;  // for the divergence detector
 };
-
-// Start-up search around a rough pose (an --init off by metres and tens of degrees, or the first GPS
-// fix with no heading): seeds on a grid of positions within `radius_m` and headings within
-// +-`yaw_range_deg` of the guess are registered against a coarse map (2 m cells, pairs up to 2 m),
-// the best few refined on the fine one, and the one that pairs most points is kept. Returns false
-// when no seed gives an accepted registration.
-bool search_pose(const std::vector<RoiMap::TileRef>& tiles, double tile_size, const RoiMap& fine,
-                 const std::vector<Eigen::Vector3f>& scan, const Eigen::Isometry3d& guess, const PoseSearch& search,
-                 const IcpConfig& icp, Eigen::Isometry3d& pose_out);
 
 // The scan's points as registration input (float, sensor frame).
 std::vector<Eigen::Vector3f> to_points(const Scan& scan);

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "pl/client/roi_map.hpp"
+#include "pl/client/map_tile.hpp"
 
 namespace pl::client {
 
@@ -21,7 +21,7 @@ class StoreTiles {
   double tile_size() const { return tile_size_; }
   long long version() const { return version_; }
   // Every tile of the version within `radius` of `center`, decoded.
-  std::vector<RoiMap::TileRef> near(const Eigen::Vector2d& center, double radius);
+  std::vector<MapTile> near(const Eigen::Vector2d& center, double radius);
 
  private:
   struct Impl;

@@ -48,10 +48,7 @@ struct MapCloud {
 MapCloud build_map_from_poses(const Dataset& ds, const Trajectory& poses, const MapBuildConfig& cfg,
                               const std::function<void(std::size_t, std::size_t)>& progress = {});
 
-// The normal of each point: the direction of least spread of its neighbours within `radius` (at least
-// 5 of them; otherwise straight up). Oriented deterministically: up when it is not near horizontal,
-// else towards +x or +y. Optionally the planarity (1 - smallest/middle eigenvalue) of each.
-std::vector<Eigen::Vector3f> estimate_normals(const Points3d& points, double radius, std::vector<float>* planarity = nullptr);
+// (Normals: pl::registration::estimate_normals.)
 
 // The points of each tile (half-open tile boxes), ordered by key.
 std::map<TileKey, TileCloud> cut_into_tiles(const Points3d& points, const std::vector<Eigen::Vector3f>& normals,

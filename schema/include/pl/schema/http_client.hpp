@@ -1,5 +1,6 @@
 // A small blocking HTTP/1.1 client with a keep-alive connection (Boost.Beast), for talking to
-// pl-server: tests, pl-map push, and the localizer's tile fetcher.
+// pl-server: pl-map push, the vehicle's tile client and the tests. Part of pl_schema so that map
+// tools use it without the vehicle library.
 #pragma once
 
 #include <cstddef>
@@ -7,7 +8,7 @@
 #include <memory>
 #include <string>
 
-namespace pl::client {
+namespace pl::api {
 
 struct HttpResponse {
   int status = 0;
@@ -48,4 +49,4 @@ class HttpClient {
 // "a b/c" -> "a%20b%2Fc" for query values and path segments.
 std::string url_encode(const std::string& text);
 
-}  // namespace pl::client
+}  // namespace pl::api

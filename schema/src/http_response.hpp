@@ -1,13 +1,13 @@
 // How the HTTP client reads an answer: the parser's limits and what of the message reaches the
-// caller. Private to pl_client; shared by HttpClient and the client_answers fuzz target.
+// caller. Private to pl_schema; shared by HttpClient and the client_answers fuzz target.
 #pragma once
 
 #include <boost/beast/http.hpp>
 #include <cstddef>
 
-#include "pl/client/http_client.hpp"
+#include "pl/schema/http_client.hpp"
 
-namespace pl::client {
+namespace pl::api {
 
 using ResponseParser = boost::beast::http::response_parser<boost::beast::http::string_body>;
 
@@ -24,4 +24,4 @@ void admit_response_body(const ResponseParser& parser, std::size_t max_body_byte
 // Status, body and headers (names in lower case; a repeated header keeps its last value).
 HttpResponse to_http_response(boost::beast::http::response<boost::beast::http::string_body>&& res);
 
-}  // namespace pl::client
+}  // namespace pl::api

@@ -1,4 +1,4 @@
-#include "pl/client/http_client.hpp"
+#include "pl/schema/http_client.hpp"
 
 #include <boost/asio/connect.hpp>
 #include <boost/asio/ip/tcp.hpp>
@@ -14,7 +14,7 @@ namespace http = beast::http;
 namespace net = boost::asio;
 using tcp = net::ip::tcp;
 
-namespace pl::client {
+namespace pl::api {
 
 std::string HttpResponse::header(const std::string& name) const {
   auto it = headers.find(name);
@@ -147,4 +147,4 @@ std::string url_encode(const std::string& text) {
   return out;
 }
 
-}  // namespace pl::client
+}  // namespace pl::api

@@ -1,7 +1,7 @@
-// Point-to-plane ICP of a scan against the ROI map (its points and the normals stored in the tiles).
-// Gauss-Newton on SE(3) with the rotation taken about the sensor, pairs farther than delta dropped
-// (trucks, people, anything the map does not have), a robust kernel on the plane distance, and the
-// checks that decide whether a result may be fused: enough inliers, a well-conditioned problem.
+// Point-to-plane ICP of a scan against a point map. Gauss-Newton on SE(3) with the rotation taken
+// about the sensor, pairs farther than delta dropped (trucks, people, anything the map does not
+// have), a robust kernel on the plane distance, and the checks that decide whether a result may be
+// trusted: enough inliers, a well-conditioned problem, convergence.
 #pragma once
 
 #include <Eigen/Core>
@@ -9,9 +9,9 @@
 
 #include <vector>
 
-#include "pl/client/roi_map.hpp"
+#include "pl/registration/point_map.hpp"
 
-namespace pl::client {
+namespace pl::registration {
 
 struct IcpConfig {
   int max_iterations = 30;
@@ -44,7 +44,7 @@ struct IcpResult {
 
 // Registers `scan` (sensor frame) starting from `guess` (map frame). The scan is taken as given:
 // prepare and downsample it before.
-IcpResult register_scan(const RoiMap& map, const std::vector<Eigen::Vector3f>& scan, const Eigen::Isometry3d& guess,
+IcpResult register_scan(const PointMap& map, const std::vector<Eigen::Vector3f>& scan, const Eigen::Isometry3d& guess,
                         const IcpConfig& cfg = {});
 
-}  // namespace pl::client
+}  // namespace pl::registration

@@ -1,0 +1,69 @@
+// The map a scan is registered against: points with unit normals in a voxel hash, held as float32
+// offsets from a double-precision anchor (so the map frame may be anywhere on Earth), made of parts
+// (the tiles around a vehicle, the merged keyframes of a loop check) that enter and leave without
+// rebuilding the rest.
+//
+// A cell belongs to the part that filled it first; cut parts along cell boundaries (tiles whose edge
+// the cell divides, anchored on the tile grid) and no point is ever dropped.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <vector>
+
+namespace pl::registration {
+
+// A map point in anchor coordinates with its unit normal.
+struct MapPoint {
+  Eigen::Vector3f p;
+  Eigen::Vector3f n;
+};
+
+struct Neighbour {
+  const MapPoint* point = nullptr;  // nullptr: nothing within the distance asked
+  float dist2 = 0;
+};
+
+class PointMap {
+ public:
+  using PartId = std::uint64_t;
+
+  // anchor: any point near where the map is used (kept exactly); cell_m > 0: the hash cell edge.
+  // Nearest-neighbour search is exact within cell_m / 2 and approximate up to cell_m.
+  PointMap(const Eigen::Vector3d& anchor, double cell_m);
+  ~PointMap();
+  PointMap(const PointMap&) = delete;
+  PointMap& operator=(const PointMap&) = delete;
+
+  // Adds a part: points in the map frame, one unit normal each. Throws pl::Error when the id is
+  // already held or the sizes differ.
+  void add(PartId id, const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector3f>& normals);
+  // Removes a part and every cell it owned; false when it was not held.
+  bool remove(PartId id);
+  bool contains(PartId id) const { return parts_.count(id) != 0; }
+
+  // Nearest map point to q (anchor coordinates) within sqrt(max_dist2) (at most cell_m).
+  Neighbour nearest(const Eigen::Vector3f& q, float max_dist2) const;
+
+  const Eigen::Vector3d& anchor() const { return anchor_; }
+  double cell_m() const { return cell_; }
+  std::size_t parts() const { return parts_.size(); }
+  std::size_t points() const { return points_; }
+  std::size_t cells() const;
+  // Every point (anchor coordinates), parts in id order.
+  std::vector<MapPoint> all_points() const;
+
+ private:
+  struct Part;
+  struct Cells;
+  double cell_;
+  Eigen::Vector3d anchor_;
+  std::map<PartId, std::unique_ptr<Part>> parts_;
+  std::unique_ptr<Cells> cells_;
+  std::size_t points_ = 0;
+};
+
+}  // namespace pl::registration

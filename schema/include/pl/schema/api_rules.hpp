@@ -1,0 +1,25 @@
+// The rules pl-server and its clients (the vehicle's tile client, pl-map push, the disk cache) must
+// agree on, written once: what a map name, a content hash and a tile size may be, and how large a
+// region-of-interest query may get. schema/openapi.yaml states the same in words.
+#pragma once
+
+#include <string_view>
+
+namespace pl::api {
+
+// A map name: 1 to 64 of [A-Za-z0-9_.-] (safe in URLs and file names as it is).
+constexpr std::size_t kMaxMapNameLength = 64;
+bool valid_map_name(std::string_view name);
+
+// A content hash (a tile's ETag, a blob's name): SHA-256 as 64 lowercase hex digits.
+bool is_hash(std::string_view text);
+
+// The tile sizes maps are made with. A tiny size from a hostile server or a crafted cache would make
+// a 100 m disc billions of tile keys.
+constexpr double kMinTileSizeM = 1.0, kMaxTileSizeM = 1000.0;
+bool valid_tile_size(double metres);
+
+// The largest radius a region-of-interest query may ask for.
+constexpr double kMaxRoiRadiusM = 5000.0;
+
+}  // namespace pl::api
