@@ -6,18 +6,13 @@
 
 #include "pl/common/error.hpp"
 #include "pl/common/pose.hpp"
+#include "pl/common/stats.hpp"
 
 namespace pl::client {
 namespace {
 
 double now_ms() {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-double median_of(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
 }
 
 void push_window(std::vector<double>& w, double value, std::size_t size = 20) {
@@ -77,10 +72,17 @@ ScanReport Localizer::process(double t, const Scan& scan, const std::vector<std:
 
 ScanReport Localizer::process_prepared(double t, const std::vector<Eigen::Vector3f>& points) {
   if (!fusion_.initialized()) throw Error("localizer: process() before start()");
+  ScanReport r = register_at(t, points, fusion_.predict(t));
+  fuse(r);
+  return r;
+}
+
+ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& predicted) {
+  if (!map_) throw Error("localizer: register_at() before start()");
   ScanReport r;
   r.t = t;
   r.scan_points = points.size();
-  r.predicted = fusion_.predict(t);
+  r.predicted = predicted;
 
   double t0 = now_ms();
   update_map(r.predicted.translation().head<2>());
@@ -92,6 +94,12 @@ ScanReport Localizer::process_prepared(double t, const std::vector<Eigen::Vector
   r.icp = registration::register_scan(map_->points_map(), points, r.predicted, cfg_.icp);
   r.register_ms = now_ms() - t0;
   for (int i = 0; i < 3; ++i) r.position_sigma[i] = std::sqrt(std::max(0.0, r.icp.covariance(i, i)));
+  return r;
+}
+
+void Localizer::fuse(ScanReport& r) {
+  if (!fusion_.initialized()) throw Error("localizer: fuse() before start()");
+  const double t = r.t;
 
   // Health. The divergence detector does not rest on one score: it needs a large correction
   // together with a fall in the share of paired points or a rise of the residual against their
@@ -100,14 +108,13 @@ ScanReport Localizer::process_prepared(double t, const std::vector<Eigen::Vector
   const double corr_m = delta.translation().norm();
   const double corr_deg = rotation_angle(delta) * 180.0 / M_PI;
   const bool big_correction = corr_m > cfg_.max_correction_m || corr_deg > cfg_.max_correction_deg;
-  const double share_median = median_of(recent_share_), rms_median = median_of(recent_rms_);
-  const bool share_fell = recent_share_.size() >= 5 && r.icp.inlier_share < 0.5 * share_median;
-  const bool rms_rose = recent_rms_.size() >= 5 && r.icp.rms_m > 2.0 * rms_median;
+  const bool share_fell = recent_share_.size() >= 5 && r.icp.inlier_share < 0.5 * median(recent_share_);
+  const bool rms_rose = recent_rms_.size() >= 5 && r.icp.rms_m > 2.0 * median(recent_rms_);
   r.diverging = big_correction && (share_fell || rms_rose || !r.icp.accepted);
   r.map_outdated = r.icp.accepted && (1.0 - r.icp.inlier_share) > cfg_.outdated_share;
 
-  bool fuse = r.icp.accepted && (!big_correction || lost_);
-  if (fuse) {
+  const bool take = r.icp.accepted && (!big_correction || lost_);
+  if (take) {
     r.fused = fusion_.correct(t, r.icp.pose);
     r.fused_lidar = true;
     unfused_streak_ = 0;
@@ -128,7 +135,6 @@ ScanReport Localizer::process_prepared(double t, const std::vector<Eigen::Vector
     r.health = Health::Degraded;
     if (r.note.empty()) r.note = "map looks outdated";
   }
-  return r;
 }
 
 bool Localizer::start_near(const Eigen::Isometry3d& guess, double t, const OdometryBuffer* odometry, const Scan& scan,

@@ -28,26 +28,41 @@ std::optional<Eigen::Isometry3d> OdometryBuffer::at(double t) const {
   return interpolate(poses_[lo], poses_[hi], s);
 }
 
-OdometryBuffer odometry_from_encoders(const std::vector<EncoderSample>& samples, double wheel_base_m) {
-  if (!(wheel_base_m > 0))
-    throw Error("encoder odometry needs vehicle.wheel_base_m > 0 in meta.json (got " + std::to_string(wheel_base_m) + ")");
-  OdometryBuffer out;
-  double x = 0, y = 0, th = 0;
-  for (std::size_t i = 0; i < samples.size(); ++i) {
-    if (i > 0) {
-      const double dl = samples[i].left_m - samples[i - 1].left_m;
-      const double dr = samples[i].right_m - samples[i - 1].right_m;
-      const double d = 0.5 * (dl + dr);
-      const double dth = (dr - dl) / wheel_base_m;
-      // The chord of the arc, along the heading at its middle.
-      const double half = 0.5 * dth;
-      const double chord = std::abs(half) < 1e-9 ? d : d * std::sin(half) / half;
-      x += chord * std::cos(th + half);
-      y += chord * std::sin(th + half);
-      th += dth;
-    }
-    out.add(samples[i].t, make_pose(x, y, 0.0, 0.0, 0.0, th));
+void OdometryBuffer::keep_last(std::size_t max_samples) {
+  while (times_.size() > max_samples) {
+    times_.pop_front();
+    poses_.pop_front();
   }
+}
+
+DiffDrive::DiffDrive(double wheel_base_m) : wheel_base_(wheel_base_m) {
+  if (!(wheel_base_m > 0) || !std::isfinite(wheel_base_m))
+    throw Error("encoder odometry needs a wheel base > 0 (vehicle.wheel_base_m in meta.json), got " + std::to_string(wheel_base_m));
+}
+
+Eigen::Isometry3d DiffDrive::add(double left_m, double right_m) {
+  if (!std::isfinite(left_m) || !std::isfinite(right_m)) throw Error("encoder odometry: wheel travel is not finite");
+  if (!first_) {
+    const double dl = left_m - left_, dr = right_m - right_;
+    const double d = 0.5 * (dl + dr);
+    const double dth = (dr - dl) / wheel_base_;
+    // The chord of the arc, along the heading at its middle.
+    const double half = 0.5 * dth;
+    const double chord = std::abs(half) < 1e-9 ? d : d * std::sin(half) / half;
+    x_ += chord * std::cos(th_ + half);
+    y_ += chord * std::sin(th_ + half);
+    th_ += dth;
+  }
+  first_ = false;
+  left_ = left_m;
+  right_ = right_m;
+  return make_pose(x_, y_, 0.0, 0.0, 0.0, th_);
+}
+
+OdometryBuffer odometry_from_encoders(const std::vector<EncoderSample>& samples, double wheel_base_m) {
+  DiffDrive drive(wheel_base_m);
+  OdometryBuffer out;
+  for (const EncoderSample& s : samples) out.add(s.t, drive.add(s.left_m, s.right_m));
   return out;
 }
 

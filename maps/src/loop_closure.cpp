@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "pl/common/error.hpp"
+#include "pl/common/stats.hpp"
 #include "pl/common/voxel.hpp"
 #include "pl/maps/map_builder.hpp"
 #include "pl/registration/icp.hpp"
@@ -20,12 +21,6 @@ namespace {
 constexpr double kDeg = M_PI / 180.0;
 constexpr double kFineCellM = 0.5;    // the local map's cells for ICP (pairs up to 0.5 m)
 constexpr double kCoarseCellM = 2.0;  // and for the seeds of a search by place
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
 
 // The keyframes within `submap_m` of path of `center`, merged in its frame at the current estimate,
 // with normals.
@@ -255,8 +250,8 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
     res_before.push_back(((before[a.a].inverse() * before[a.b]).inverse() * a.z).translation().norm());
     res_after.push_back(((estimate[a.a].inverse() * estimate[a.b]).inverse() * a.z).translation().norm());
   }
-  rep.residual_before_m = median(res_before);
-  rep.residual_after_m = median(res_after);
+  rep.residual_before_m = res_before.empty() ? 0.0 : median(res_before);
+  rep.residual_after_m = res_after.empty() ? 0.0 : median(res_after);
   return rep;
 }
 

@@ -80,8 +80,14 @@ class Localizer {
   void start(const Eigen::Isometry3d& pose, double t, const OdometryBuffer* odometry);
   // One scan (sensor frame) taken at t, with its rings (needed when fewer beams are kept).
   ScanReport process(double t, const Scan& scan, const std::vector<std::uint16_t>& rings);
-  // Registers an already prepared scan.
+  // Registers an already prepared scan: register_at(t, points, pose_at(t)), then fuse().
   ScanReport process_prepared(double t, const std::vector<Eigen::Vector3f>& points);
+
+  // The two halves of process_prepared, for callers that run registration on another thread than
+  // the one reading poses: register_at touches only the ROI map (not the filter), fuse() only the
+  // filter and the health state.
+  ScanReport register_at(double t, const std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& predicted);
+  void fuse(ScanReport& report);
 
   // The fused pose at any time (odometry rate where there is odometry).
   Eigen::Isometry3d pose_at(double t) const { return fusion_.predict(t); }

@@ -1,0 +1,41 @@
+// A recorded drive replayed through the VehicleLocalizer exactly as a vehicle program would feed it:
+// odometry samples as they would have arrived, each scan handed over and its result waited for,
+// fused poses read at the odometry rate (the ones a late result arrives too late for are output
+// as they were before it). pl-localize is argument handling over this.
+#pragma once
+
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "pl/client/vehicle_localizer.hpp"
+#include "pl/common/dataset.hpp"
+#include "pl/common/pose.hpp"
+
+namespace pl::client {
+
+enum class OdometrySource { None, Encoder, Poses };
+
+struct ReplayOptions {
+  std::vector<std::size_t> scans;  // dataset indices to localize, in order (the first starts)
+  OdometrySource odometry = OdometrySource::None;
+  bool rings = false;              // hand the rings over (needed when fewer beams are kept)
+  bool realtime = false;           // wait for each scan's time on the wall clock
+  std::FILE* timing = nullptr;     // per-scan CSV (header written here), optional
+  std::function<void(std::size_t done, std::size_t total)> progress;
+  // Starts the localizer (start, start_near) once the odometry up to the first scan is given.
+  std::function<void(VehicleLocalizer&)> start;
+};
+
+struct ReplayResult {
+  Trajectory fused;     // at the odometry rate (TUM), or one per scan without odometry
+  Trajectory per_scan;  // the fused pose of every scan
+  std::size_t ok = 0, degraded = 0, lost = 0, outdated = 0, lidar_fused = 0;
+  std::vector<double> registration_ms, total_ms;
+};
+
+// The drive, scan by scan, after options.start. Throws pl::Error when the start failed (naming why).
+ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOptions& options);
+
+}  // namespace pl::client

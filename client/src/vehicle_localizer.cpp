@@ -1,0 +1,382 @@
+// The worker thread owns the ROI map and the registration; one mutex guards what the input and
+// output threads share with it: the odometry buffer, the filter (inside the Localizer), the start
+// request, the waiting scan and the last report. Registration itself runs without the lock, so
+// pose_at() never waits for ICP.
+#include "pl/client/vehicle_localizer.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "pl/client/store_tiles.hpp"
+#include "pl/common/error.hpp"
+#include "pl/common/pose.hpp"
+
+namespace pl::client {
+namespace {
+
+double now_ms() { return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+
+struct ScanJob {
+  double t = 0;
+  Scan points;
+  std::vector<std::uint16_t> rings;
+  std::vector<float> times;
+};
+
+enum class StartRequest { None, At, Near };
+
+}  // namespace
+
+struct VehicleLocalizer::Impl {
+  VehicleLocalizerConfig cfg;
+  std::unique_ptr<TileClient> client;
+  std::unique_ptr<StoreTiles> store;
+  double tile_size = 0;
+  long long version = 0;
+  std::unique_ptr<Localizer> loc;
+
+  mutable std::mutex m;
+  mutable std::condition_variable cv;
+  OdometryBuffer odo;  // LiDAR poses in the odometry frame
+  std::optional<DiffDrive> drive;
+  bool have_base = false;
+  double last_odo_t = 0;
+  Eigen::Isometry3d last_base = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d twist_v = Eigen::Vector3d::Zero(), twist_w = Eigen::Vector3d::Zero();
+  std::deque<std::pair<double, Eigen::Vector3d>> gps;
+  std::atomic<bool> started{false};
+  StartRequest request = StartRequest::None;
+  Eigen::Isometry3d request_pose = Eigen::Isometry3d::Identity();  // LiDAR in map
+  double request_t = 0;
+  std::optional<ScanJob> pending;
+  bool busy = false, stop = false;
+  ScanReport last;
+  bool have_report = false;
+  double last_fused_t = 0;
+  Eigen::Matrix<double, 6, 6> last_cov = Eigen::Matrix<double, 6, 6>::Identity();
+  std::string error;
+  std::function<void(const ScanReport&)> callback;
+  Eigen::Vector2d last_xy = Eigen::Vector2d::Zero();
+  double last_scan_t = 0;
+  std::thread worker;
+
+  std::vector<MapTile> tiles_near(const Eigen::Vector2d& c, double r) { return store ? store->near(c, r) : client->tiles_near(c, r); }
+
+  Eigen::Isometry3d to_lidar(const Eigen::Isometry3d& base) const { return base * cfg.base_from_lidar; }
+  Eigen::Isometry3d to_base(const Eigen::Isometry3d& lidar) const { return lidar * cfg.base_from_lidar.inverse(); }
+
+  // Under the lock.
+  void add_base_pose(double t, const Eigen::Isometry3d& base) {
+    odo.add(t, to_lidar(base));  // throws for times that do not increase
+    odo.keep_last(cfg.max_odometry_samples);
+    last_base = base;
+    last_odo_t = t;
+    have_base = true;
+  }
+
+  // Focus on the start pose and wait (bounded) for its tiles. Without the lock.
+  void load_start_tiles(const Eigen::Isometry3d& lidar) {
+    const Eigen::Vector2d xy = lidar.translation().head<2>();
+    if (!client) return;
+    client->set_focus(xy, xy);
+    if (!client->wait_for(xy, cfg.localizer.roi_radius_m, cfg.start_wait_s)) {
+      std::lock_guard<std::mutex> lk(m);
+      error = "not every tile round the start arrived within " + std::to_string(static_cast<int>(cfg.start_wait_s)) + " s (" +
+              client->status().last_error + ")";
+    }
+  }
+
+  // Under the lock; the lock is held while the start registers (pose_at does not wait: not started).
+  void started_at(const Eigen::Isometry3d& lidar, double t) {
+    last_xy = lidar.translation().head<2>();
+    last_scan_t = t;
+    last_fused_t = t;
+    have_report = false;
+    started = true;
+  }
+
+  void run() {
+    std::unique_lock<std::mutex> lk(m);
+    while (true) {
+      cv.wait(lk, [&] { return stop || pending || request == StartRequest::At; });
+      if (stop) return;
+      busy = true;
+      try {
+        if (request == StartRequest::At) {
+          const Eigen::Isometry3d pose = request_pose;
+          const double t = request_t;
+          request = StartRequest::None;
+          lk.unlock();
+          load_start_tiles(pose);
+          lk.lock();
+          loc->start(pose, t, &odo);
+          started_at(pose, t);
+        }
+        if (pending) {
+          ScanJob job = std::move(*pending);
+          pending.reset();
+          if (started || try_start(job, lk)) process(job, lk);
+        }
+      } catch (const std::exception& e) {
+        error = e.what();
+      }
+      busy = false;
+      cv.notify_all();
+    }
+  }
+
+  // A start round a rough pose (or the GPS fix) with this scan. Called with the lock held.
+  bool try_start(const ScanJob& job, std::unique_lock<std::mutex>& lk) {
+    Eigen::Isometry3d guess;
+    registration::PoseSearch search = cfg.search;
+    if (request == StartRequest::Near) {
+      guess = request_pose;
+    } else if (cfg.start_from_gps) {
+      const std::pair<double, Eigen::Vector3d>* fix = nullptr;
+      for (const auto& g : gps)
+        if (std::abs(g.first - job.t) <= 0.5) fix = &g;
+      if (!fix) return false;
+      Eigen::Isometry3d base = Eigen::Isometry3d::Identity();  // heading unknown: level, facing +x
+      base.translation() = fix->second - cfg.base_from_antenna;
+      guess = to_lidar(base);
+      search = cfg.gps_search;
+    } else {
+      return false;  // not started, nothing to start from: the scan is dropped
+    }
+    lk.unlock();
+    load_start_tiles(guess);
+    lk.lock();
+    if (!loc->start_near(guess, job.t, &odo, job.points, job.rings, search)) {
+      started = false;
+      error = "the first scan registers to the map nowhere within " + std::to_string(search.radius_m) +
+              " m of the start guess; give a closer pose";
+      return false;
+    }
+    request = StartRequest::None;
+    started_at(loc->pose_at(job.t), job.t);
+    return true;
+  }
+
+  // One scan: predict, focus the tiles, prepare, register (unlocked), fuse. Called with the lock held.
+  void process(ScanJob& job, std::unique_lock<std::mutex>& lk) {
+    const double t = job.t;
+    const Eigen::Isometry3d predicted = loc->pose_at(t);
+    if (!job.times.empty()) deskew(job);
+    lk.unlock();
+    const Eigen::Vector2d xy = predicted.translation().head<2>();
+    const Eigen::Vector2d velocity = t > last_scan_t ? Eigen::Vector2d((xy - last_xy) / (t - last_scan_t)) : Eigen::Vector2d::Zero();
+    if (client) client->set_focus(xy, xy + cfg.lookahead_s * velocity);
+    const double t0 = now_ms();
+    const Scan prepared = prepare_scan(job.points, job.rings, cfg.localizer.scan);
+    const double prep = now_ms() - t0;
+    ScanReport r = loc->register_at(t, to_points(prepared), predicted);
+    r.prepare_ms = prep;
+    lk.lock();
+    loc->fuse(r);
+    last = r;
+    have_report = true;
+    last_xy = r.fused.translation().head<2>();
+    last_scan_t = t;
+    if (r.fused_lidar) {
+      last_fused_t = t;
+      last_cov = r.icp.covariance;
+    }
+    if (callback) {
+      const auto cb = callback;
+      lk.unlock();
+      cb(r);
+      lk.lock();
+    }
+  }
+
+  // Each point moved to where the sensor was at the scan's time, by the odometry between its own
+  // time and the scan's (points whose time the odometry does not cover stay as they are).
+  void deskew(ScanJob& job) const {
+    if (job.times.size() != job.points.size()) return;
+    const auto at_scan = odo.at(job.t);
+    if (!at_scan) return;
+    const Eigen::Isometry3d inv = at_scan->inverse();
+    for (std::size_t i = 0; i < job.points.size(); ++i) {
+      const auto at_point = odo.at(job.t + job.times[i]);
+      if (!at_point) continue;
+      PointXYZI& p = job.points[i];
+      const Eigen::Vector3d q = (inv * *at_point) * Eigen::Vector3d(p.x, p.y, p.z);
+      p.x = static_cast<float>(q.x());
+      p.y = static_cast<float>(q.y());
+      p.z = static_cast<float>(q.z());
+    }
+  }
+};
+
+VehicleLocalizer::VehicleLocalizer(const VehicleLocalizerConfig& cfg) : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  m.cfg = cfg;
+  if (!cfg.base_from_lidar.matrix().allFinite() || !cfg.base_from_antenna.allFinite())
+    throw Error("VehicleLocalizer: the extrinsics (base_from_lidar, base_from_antenna) must be finite");
+  if (!(cfg.lookahead_s >= 0) || !(cfg.start_wait_s >= 0) || !(cfg.ready_timeout_s >= 0))
+    throw Error("VehicleLocalizer: lookahead_s, start_wait_s and ready_timeout_s must not be negative");
+  if (cfg.max_odometry_samples < 2) throw Error("VehicleLocalizer: max_odometry_samples must be at least 2");
+  if (!cfg.store_path.empty()) {
+    m.store = std::make_unique<StoreTiles>(cfg.store_path, cfg.tiles.map, cfg.tiles.version.value_or(0));
+    m.tile_size = m.store->tile_size();
+    m.version = m.store->version();
+  } else {
+    TileClientConfig tc = cfg.tiles;
+    tc.radius_m = std::max(tc.radius_m, cfg.localizer.roi_radius_m + 20.0);
+    m.client = std::make_unique<TileClient>(tc);
+    if (!m.client->wait_ready(cfg.ready_timeout_s))
+      throw Error("no map '" + tc.map + "' from " + tc.server + " and none in the disk cache (" + m.client->status().last_error +
+                  "): is pl-server running, or give TileClientConfig::cache_path of an earlier drive");
+    const TileClientStatus st = m.client->status();
+    m.tile_size = st.tile_size;
+    m.version = st.version;
+  }
+  if (cfg.wheel_base_m > 0) m.drive.emplace(cfg.wheel_base_m);
+  Impl* raw = impl_.get();
+  m.loc = std::make_unique<Localizer>(cfg.localizer, m.tile_size, [raw](const Eigen::Vector2d& c, double r) { return raw->tiles_near(c, r); });
+  m.worker = std::thread([raw] { raw->run(); });
+}
+
+VehicleLocalizer::~VehicleLocalizer() {
+  {
+    std::lock_guard<std::mutex> lk(impl_->m);
+    impl_->stop = true;
+  }
+  impl_->cv.notify_all();
+  impl_->worker.join();
+}
+
+void VehicleLocalizer::start(const Eigen::Isometry3d& base_in_map, double t) {
+  if (!base_in_map.matrix().allFinite() || !std::isfinite(t)) throw Error("VehicleLocalizer::start: the pose and time must be finite");
+  std::lock_guard<std::mutex> lk(impl_->m);
+  impl_->request = StartRequest::At;
+  impl_->request_pose = impl_->to_lidar(base_in_map);
+  impl_->request_t = t;
+  impl_->cv.notify_all();
+}
+
+void VehicleLocalizer::start_near(const Eigen::Isometry3d& rough_base_in_map, double t) {
+  if (!rough_base_in_map.matrix().allFinite() || !std::isfinite(t)) throw Error("VehicleLocalizer::start_near: the pose and time must be finite");
+  std::lock_guard<std::mutex> lk(impl_->m);
+  impl_->started = false;
+  impl_->request = StartRequest::Near;
+  impl_->request_pose = impl_->to_lidar(rough_base_in_map);
+  impl_->request_t = t;
+}
+
+void VehicleLocalizer::add_odometry_pose(double t, const Eigen::Isometry3d& base_in_odom) {
+  std::lock_guard<std::mutex> lk(impl_->m);
+  impl_->add_base_pose(t, base_in_odom);
+}
+
+void VehicleLocalizer::add_odometry_increment(double t, const Eigen::Isometry3d& delta) {
+  std::lock_guard<std::mutex> lk(impl_->m);
+  impl_->add_base_pose(t, impl_->last_base * delta);
+}
+
+void VehicleLocalizer::add_twist(double t, const Eigen::Vector3d& v, const Eigen::Vector3d& w) {
+  if (!v.allFinite() || !w.allFinite()) throw Error("VehicleLocalizer::add_twist: the twist must be finite");
+  std::lock_guard<std::mutex> lk(impl_->m);
+  Impl& m = *impl_;
+  // The previous twist held over the interval since the previous sample.
+  Eigen::Isometry3d next = m.last_base;
+  if (m.have_base) {
+    const double dt = t - m.last_odo_t;
+    Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
+    step.linear() = rotation_from_vector(m.twist_w * dt);
+    step.translation() = m.twist_v * dt;
+    next = m.last_base * step;
+  }
+  m.add_base_pose(t, next);
+  m.twist_v = v;
+  m.twist_w = w;
+}
+
+void VehicleLocalizer::add_wheel_travel(double t, double left_m, double right_m) {
+  std::lock_guard<std::mutex> lk(impl_->m);
+  if (!impl_->drive) throw Error("VehicleLocalizer: wheel odometry needs VehicleLocalizerConfig::wheel_base_m > 0");
+  impl_->add_base_pose(t, impl_->drive->add(left_m, right_m));
+}
+
+void VehicleLocalizer::add_wheel_ticks(double t, std::int64_t left, std::int64_t right) {
+  const double k = impl_->cfg.metres_per_tick;
+  add_wheel_travel(t, k * static_cast<double>(left), k * static_cast<double>(right));
+}
+
+void VehicleLocalizer::add_scan(double t, const Scan& points, const std::vector<std::uint16_t>& rings, const std::vector<float>& point_times) {
+  if (!std::isfinite(t)) throw Error("VehicleLocalizer::add_scan: the time is not finite");
+  if (!rings.empty() && rings.size() != points.size())
+    throw Error("VehicleLocalizer::add_scan: " + std::to_string(rings.size()) + " rings for " + std::to_string(points.size()) + " points");
+  if (!point_times.empty() && point_times.size() != points.size())
+    throw Error("VehicleLocalizer::add_scan: " + std::to_string(point_times.size()) + " point times for " + std::to_string(points.size()) + " points");
+  std::lock_guard<std::mutex> lk(impl_->m);
+  impl_->pending = ScanJob{t, points, rings, point_times};  // replaces a scan still waiting
+  impl_->cv.notify_all();
+}
+
+void VehicleLocalizer::add_gps(double t, const Eigen::Vector3d& antenna_in_map) {
+  if (!std::isfinite(t) || !antenna_in_map.allFinite()) throw Error("VehicleLocalizer::add_gps: the fix must be finite");
+  std::lock_guard<std::mutex> lk(impl_->m);
+  impl_->gps.emplace_back(t, antenna_in_map);
+  while (impl_->gps.size() > 64) impl_->gps.pop_front();
+}
+
+PoseEstimate VehicleLocalizer::pose_at(double t) const {
+  PoseEstimate out;
+  out.t = t;
+  if (!impl_->started) {
+    out.note = "not started";
+    return out;
+  }
+  std::lock_guard<std::mutex> lk(impl_->m);
+  const Impl& m = *impl_;
+  out.valid = true;
+  out.base_in_map = m.to_base(m.loc->pose_at(t));
+  const FusionConfig& f = m.cfg.localizer.fusion;
+  const double intervals = std::max(0.0, (t - m.last_fused_t) / 0.1);
+  out.covariance = m.last_cov;
+  for (int i = 0; i < 6; ++i) out.covariance(i, i) += intervals * f.odometry_sigma[i] * f.odometry_sigma[i];
+  if (m.have_report) {
+    out.health = m.last.health;
+    out.note = m.last.note;
+  } else {
+    out.health = Health::Degraded;
+    out.note = "no scan registered yet";
+  }
+  return out;
+}
+
+bool VehicleLocalizer::wait_idle(double timeout_s) const {
+  std::unique_lock<std::mutex> lk(impl_->m);
+  return impl_->cv.wait_for(lk, std::chrono::duration<double>(timeout_s), [&] {
+    return !impl_->pending && !impl_->busy && impl_->request != StartRequest::At;
+  });
+}
+
+ScanReport VehicleLocalizer::last_report() const {
+  std::lock_guard<std::mutex> lk(impl_->m);
+  return impl_->have_report ? impl_->last : ScanReport{};
+}
+
+void VehicleLocalizer::on_scan(std::function<void(const ScanReport&)> callback) {
+  std::lock_guard<std::mutex> lk(impl_->m);
+  impl_->callback = std::move(callback);
+}
+
+std::string VehicleLocalizer::last_error() const {
+  std::lock_guard<std::mutex> lk(impl_->m);
+  return impl_->error;
+}
+
+double VehicleLocalizer::tile_size() const { return impl_->tile_size; }
+long long VehicleLocalizer::map_version() const { return impl_->version; }
+TileClientStatus VehicleLocalizer::tile_status() const { return impl_->client ? impl_->client->status() : TileClientStatus{}; }
+
+}  // namespace pl::client
