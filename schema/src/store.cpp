@@ -13,7 +13,7 @@
 #include <utility>
 
 #include "pl/common/error.hpp"
-#include "sqlite_util.hpp"
+#include "pl/schema/detail/sqlite.hpp"
 
 namespace pl::store {
 

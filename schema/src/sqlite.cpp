@@ -1,4 +1,4 @@
-#include "sqlite_util.hpp"
+#include "pl/schema/detail/sqlite.hpp"
 
 #include <limits>
 
