@@ -16,6 +16,7 @@
 #include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/progress.hpp"
+#include "pl/common/stats.hpp"
 
 
 namespace {
@@ -33,13 +34,6 @@ const char* kUsage =
 
 double seconds_now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const auto k = static_cast<std::size_t>(p / 100.0 * static_cast<double>(v.size() - 1) + 0.5);
-  return v[std::min(k, v.size() - 1)];
 }
 
 // The tiles: from pl-server through the tile client (background fetching, caches), or a local store.
@@ -289,7 +283,7 @@ int body(int argc, char** argv) {
   std::printf("  status: %zu ok, %zu degraded, %zu lost; LiDAR fused on %zu (%.1f %%); map looked outdated on %zu\n", n_ok,
               n_degraded, n_lost, n_fused, 100.0 * static_cast<double>(n_fused) / static_cast<double>(scans.size()), n_outdated);
   std::printf("  registration ms: median %.2f, p99 %.2f; whole scan ms: median %.2f, p99 %.2f (one thread)\n",
-              percentile(reg_ms, 50), percentile(reg_ms, 99), percentile(total_ms, 50), percentile(total_ms, 99));
+              pl::median(reg_ms), pl::percentile(reg_ms, 99), pl::median(total_ms), pl::percentile(total_ms, 99));
   std::printf("  fused poses: %zu (%.1f Hz over %.1f s of drive) -> %s\n", fused_tum.size(),
               span > 0 ? static_cast<double>(fused_tum.size()) / span : 0.0, span, out_path.c_str());
   if (tiles.client) {
