@@ -113,14 +113,14 @@ int body(int argc, char** argv) {
     iters.push_back(f.iterations);
     degenerate += f.degenerate;
     keyframes += f.keyframe;
-    if ((i + 1) % 100 == 0) std::fprintf(stderr, "  %zu/%zu scans, median %.1f ms so far\r", i + 1, n, pl::bench::median(ms));
+    if ((i + 1) % 100 == 0) std::fprintf(stderr, "  %zu/%zu scans, median %.1f ms so far\r", i + 1, n, pl::median(ms));
   }
   std::fprintf(stderr, "%60s\r", "");
   std::printf("%s: %zu scans, %zu points a scan (mean), deskew %s\n", ds.dir.c_str(), n, points / n, cfg.deskew ? "on" : "off");
-  std::printf("  time a scan      median %.1f ms, p90 %.1f ms, p99 %.1f ms, max %.1f ms (target: median <= 50 ms)\n", pl::bench::median(ms),
-              pl::bench::percentile(ms, 90), pl::bench::percentile(ms, 99), pl::bench::percentile(ms, 100));
+  std::printf("  time a scan      median %.1f ms, p90 %.1f ms, p99 %.1f ms, max %.1f ms (target: median <= 50 ms)\n", pl::median(ms),
+              pl::percentile(ms, 90), pl::percentile(ms, 99), pl::percentile(ms, 100));
   std::printf("  matched features median %.0f edges, %.0f planes; Gauss-Newton steps median %.0f; %zu keyframes; %zu degenerate scans\n",
-              pl::bench::median(feat_edges), pl::bench::median(feat_planes), pl::bench::median(iters), keyframes, degenerate);
+              pl::median(feat_edges), pl::median(feat_planes), pl::median(iters), keyframes, degenerate);
   std::printf("  local map at the end: %zu edge points, %zu plane points\n", odo.map_edges(), odo.map_planes());
   if (gt) {
     double path = 0, rel_t = 0, rel_r = 0, rel_t_max = 0;
@@ -142,7 +142,7 @@ int body(int argc, char** argv) {
                 path > 0 ? 100.0 * final_err / path : 0.0);
     if (n > 1)
       std::printf("  scan to scan     translation error mean %.1f mm, median %.1f mm, max %.1f mm; rotation error mean %.4f deg\n",
-                  1e3 * rel_t / static_cast<double>(n - 1), 1e3 * pl::bench::median(rel), 1e3 * rel_t_max,
+                  1e3 * rel_t / static_cast<double>(n - 1), 1e3 * pl::median(rel), 1e3 * rel_t_max,
                   rel_r / static_cast<double>(n - 1) * 180.0 / M_PI);
   }
   if (traj_out) {

@@ -176,7 +176,7 @@ ApeStats ape(const Poses& est, const Poses& gt) {
   if (e.empty()) return s;
   s.mean /= static_cast<double>(e.size());
   s.rmse = std::sqrt(s.rmse / static_cast<double>(e.size()));
-  s.median = pl::bench::median(e);
+  s.median = pl::median(e);
   return s;
 }
 
@@ -187,7 +187,7 @@ double per_scan_median(const Run& r) {
   std::vector<double> v;
   for (std::size_t k = 0; k < r.register_ms.size(); ++k)
     v.push_back(r.register_ms[k] + sum_of(r.target_ms, k) + sum_of(r.index_ms, k) + sum_of(r.map_ms, k));
-  return v.empty() ? 0.0 : pl::bench::median(v);
+  return v.empty() ? 0.0 : pl::median(v);
 }
 
 }  // namespace
@@ -382,18 +382,18 @@ int main(int argc, char** argv) try {
   const std::size_t n = scans.size();
   std::printf("points a scan (medians): ours registers %.0f (%.1f m voxels) against its ROI map of %.0f; PCL registers %.0f "
               "(0.2 m voxels) against %.0f\n\n",
-              pl::bench::median(ours.points), cfg.scan.voxel_m, pl::bench::median(ours.target_points),
-              pl::bench::median(icp_pp.points), pl::bench::median(icp_pp.target_points));
+              pl::median(ours.points), cfg.scan.voxel_m, pl::median(ours.target_points),
+              pl::median(icp_pp.points), pl::median(icp_pp.target_points));
 
   const ApeStats ours_ape = ape(ours.poses, gt);
-  const double ours_reg = pl::bench::median(ours.register_ms);
+  const double ours_reg = pl::median(ours.register_ms);
   const double ours_scan = per_scan_median(ours);
   std::printf("%-40s %7s %7s %7s %7s  %8s %7s  %9s %8s  %9s %9s\n", "APE vs OXTS (m), registration (ms)", "mean", "median",
               "RMSE", "max", "coverage", "<0.5 m", "reg p50", "reg p99", "target", "index");
   const Run* runs[] = {&ours, &floor, &icp_pp, &icp_pl, &ndt};
   const auto ms_or_dash = [](const std::vector<double>& v) {
     char b[32] = "-";
-    if (!v.empty()) std::snprintf(b, sizeof b, "%.2f", pl::bench::median(v));
+    if (!v.empty()) std::snprintf(b, sizeof b, "%.2f", pl::median(v));
     return std::string(b);
   };
   for (const Run* r : runs) {
@@ -402,15 +402,15 @@ int main(int argc, char** argv) try {
     for (int v : r->ok) ok += v > 0;
     std::printf("%-40s %7.3f %7.3f %7.3f %7.3f  %7.1f%% %6.1f%%  %9.2f %8.2f  %9s %9s\n", r->name.c_str(), s.mean, s.median,
                 s.rmse, s.max, 100.0 * static_cast<double>(ok) / static_cast<double>(n),
-                100.0 * static_cast<double>(s.within) / static_cast<double>(n), pl::bench::median(r->register_ms),
-                pl::bench::percentile(r->register_ms, 99),
+                100.0 * static_cast<double>(s.within) / static_cast<double>(n), pl::median(r->register_ms),
+                pl::percentile(r->register_ms, 99),
                 ms_or_dash(r->target_ms).c_str(), ms_or_dash(r->index_ms).c_str());
   }
   std::printf("  coverage: share of scans the method itself accepted (ours: fused; PCL: converged before the iteration "
               "limit); <0.5 m: share within 0.5 m of the ground truth\n");
   std::printf("  target / index: PCL's per-scan map gathering and k-d tree (NDT: cell) build, medians, not in reg; "
               "ours keeps its ROI map up to date incrementally: median %.2f ms a scan\n\n",
-              pl::bench::median(ours.map_ms));
+              pl::median(ours.map_ms));
 
   std::printf("settings:\n");
   for (const Run* r : runs) std::printf("  %-38s %s\n", r->name.c_str(), r->settings.c_str());
@@ -428,7 +428,7 @@ int main(int argc, char** argv) try {
               ours_ape.mean, ours_reg, ours_scan);
   for (const Run* r : {&icp_pp, &icp_pl, &ndt}) {
     const ApeStats s = ape(r->poses, gt);
-    const double reg = pl::bench::median(r->register_ms), whole = per_scan_median(*r);
+    const double reg = pl::median(r->register_ms), whole = per_scan_median(*r);
     std::printf("  %s %.3f m at %.0f ms = %.0fx slower than ours (%.0fx with target and index: %.0f ms vs %.2f ms)\n",
                 r->name.c_str(), s.mean, reg, reg / ours_reg, whole / ours_scan, whole, ours_scan);
   }

@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
       points += cast_scan(lidar, pose, scene, &moving, rng).size();
       ms.push_back(pl::bench::now_ms() - t0);
     }
-    double med = pl::bench::median(ms);
+    double med = pl::median(ms);
     double rays = static_cast<double>(lidar.vertical_deg.size()) * lidar.azimuth_steps;
     std::printf("  %-6s %2zu beams: %6.1f scans/s (median %.1f ms a scan, %.2f M rays/s), %zu points a scan; target >= %d scans/s\n",
                 name, lidar.vertical_deg.size(), 1000.0 / med, med, rays / med / 1000.0, points / scans,

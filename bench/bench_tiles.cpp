@@ -77,7 +77,7 @@ int main(int argc, char** argv) {
               static_cast<double>(bytes) / points, raw / static_cast<double>(bytes));
   std::printf("  re-encoding the decoded tiles: max position change %.4f m (bound 0.005 m)\n", max_err);
   std::printf("  decode %.1f M points/s (median of 15 rounds over all tiles; target >= 10; Draco's decoder alone %.1f M), encode %.1f M points/s, one thread\n",
-              points / pl::bench::median(decode_ms) / 1000.0, points / pl::bench::median(draco_ms) / 1000.0,
+              points / pl::median(decode_ms) / 1000.0, points / pl::median(draco_ms) / 1000.0,
               points / encode_ms / 1000.0);
   std::printf("  %.2f MB per km2 of occupied %.0f m tiles (%.3f km2) at %.2f m voxels (paper: 8 MB per 0.25 km2 = 32 MB/km2)\n",
               bytes / 1e6 / km2, map->tile_size, km2, map->voxel_size);

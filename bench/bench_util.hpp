@@ -1,27 +1,18 @@
-// Timing helpers for the benchmarks: repeated runs, medians, and A/B interleaving so a ratio holds
-// when the machine's speed drifts.
+// Timing helpers for the benchmarks: repeated runs and A/B interleaving so a ratio holds when the
+// machine's speed drifts. Medians and percentiles are pl::median and pl::percentile
+// (pl/common/stats.hpp, included here for every benchmark).
 #pragma once
 
 #include <algorithm>
 #include <chrono>
 #include <vector>
 
+#include "pl/common/stats.hpp"
+
 namespace pl::bench {
 
 inline double now_ms() {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-inline double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
-
-inline double percentile(std::vector<double> v, double p) {
-  std::sort(v.begin(), v.end());
-  std::size_t k = static_cast<std::size_t>(p / 100.0 * static_cast<double>(v.size() - 1) + 0.5);
-  return v[std::min(k, v.size() - 1)];
 }
 
 // Runs a and b alternately `runs` times (after one warm-up each); returns per-run milliseconds.

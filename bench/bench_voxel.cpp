@@ -65,13 +65,13 @@ int main(int argc, char** argv) {
         pcl_n = filtered.size();
       },
       ours_ms, pcl_ms);
-  double ours = pl::bench::median(ours_ms), theirs = pl::bench::median(pcl_ms);
+  double ours = pl::median(ours_ms), theirs = pl::median(pcl_ms);
   std::printf("voxel grid 0.2 m, one scan of %zu points (%s), %d interleaved runs, one thread\n", scan.size(),
               path.empty() ? "generated" : path.c_str(), runs);
   std::printf("  %-24s median %7.3f ms  p90 %7.3f ms  -> %zu points\n", "pl::voxel_downsample", ours,
-              pl::bench::percentile(ours_ms, 90), ours_n);
+              pl::percentile(ours_ms, 90), ours_n);
   std::printf("  %-24s median %7.3f ms  p90 %7.3f ms  -> %zu points\n", "pcl::VoxelGrid", theirs,
-              pl::bench::percentile(pcl_ms, 90), pcl_n);
+              pl::percentile(pcl_ms, 90), pcl_n);
   std::printf("  speed-up over pcl::VoxelGrid: %.2fx (target >= 2x); ours %s the 5 ms budget\n", theirs / ours,
               ours <= 5.0 ? "within" : "OVER");
   return 0;

@@ -13,6 +13,7 @@
 #include "pl/common/cloud_io.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/progress.hpp"
+#include "pl/common/stats.hpp"
 #include "pl/common/text.hpp"
 #include "pl/maps/loam.hpp"
 #include "pl/maps/loop_closure.hpp"
@@ -148,10 +149,10 @@ int cmd_build(const pl::Args& a) {
     }
     bar.finish();
     placed.times = ds.times;
-    std::sort(ms.begin(), ms.end());
+    const double median_ms = pl::median(ms);
     std::printf("lidar odometry: %zu scans (deskew %s), median %.1f ms a scan, %zu degenerate%s\n", ds.size(), lc.deskew ? "on" : "off",
-                ms[ms.size() / 2], degenerate, start_at_truth ? ", started at the first ground-truth pose" : ", in the first scan's frame");
-    report["odometry"] = {{"median_ms", ms[ms.size() / 2]}, {"degenerate", degenerate}, {"deskew", lc.deskew}};
+                median_ms, degenerate, start_at_truth ? ", started at the first ground-truth pose" : ", in the first scan's frame");
+    report["odometry"] = {{"median_ms", median_ms}, {"degenerate", degenerate}, {"deskew", lc.deskew}};
     if (ds.has_ground_truth()) {
       // The odometry's error as if it had started at the first ground-truth pose.
       pl::Trajectory from_truth = placed;

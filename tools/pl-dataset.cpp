@@ -16,6 +16,7 @@
 #include "pl/common/error.hpp"
 #include "pl/common/geo.hpp"
 #include "pl/common/progress.hpp"
+#include "pl/common/stats.hpp"
 #include "pl/common/voxel.hpp"
 
 namespace {
@@ -44,12 +45,8 @@ const char* kUsage =
     "       file. OUT_DIR must either not exist, be empty, or be an earlier degrade-gps output (marked by\n"
     "       .pl-degrade-gps; it is replaced).\n";
 
-double median_of(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
+// pl::median, and 0 for no values (e.g. no scan of a sample had any points).
+double median_of(const std::vector<double>& v) { return v.empty() ? 0.0 : pl::median(v); }
 
 int cmd_info(const pl::Args& args) {
   if (args.positional().size() != 2) throw pl::Error("info takes one folder: pl-dataset info DIR");

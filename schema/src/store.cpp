@@ -15,15 +15,17 @@
 #include <utility>
 
 #include "pl/common/error.hpp"
-#include "sqlite_util.hpp"
+#include "pl/schema/detail/sqlite.hpp"
 
 namespace pl::store {
 
-using detail::damaged;
-using detail::exec;
-using detail::fail;
-using detail::Stmt;
-using detail::WriteScope;
+using sqlite::damaged;
+using sqlite::Db;
+using sqlite::exec;
+using sqlite::plain;
+using sqlite::Row;
+using sqlite::Stmt;
+using sqlite::WriteScope;
 
 namespace {
 
@@ -38,19 +40,18 @@ const Migration kMigrations[] = {
 #include "pl_schema_migrations.inc"
 };
 
-constexpr std::int64_t kApplicationId = 0x504C4D53;  // 'PLMS', set by migration 1
-constexpr int kBusyTimeoutMs = 5000;
+// What messages call a store file, and the fixes they name.
+const sqlite::FileKind kMapStore = {
+    "map store",
+    0x504C4D53,  // 'PLMS', set by migration 1
+    "restore it from a backup, or rebuild it with pl-map",
+    "is this the right file?",
+    "upgrade the PointLocalization software",
+};
 
-sqlite3* handle(void* db, const std::string& path) {
-  if (!db)
-    throw Error(path.empty() ? std::string("map store: used after it was moved from") : path + ": map store is closed");
-  return static_cast<sqlite3*>(db);
-}
+Db handle(void* db, const std::string& path) { return sqlite::checked(db, path, kMapStore); }
 
-std::int64_t pragma_int(sqlite3* db, const std::string& path, const char* sql) {
-  Stmt st(db, path, sql);
-  return st.step() ? st.int64(0) : 0;
-}
+std::int64_t pragma_int(const Db& db, const char* sql) { return sqlite::query_int(db, sql); }
 
 std::string num(std::int64_t v) { return std::to_string(v); }
 
@@ -63,82 +64,23 @@ bool is_timestamp(const std::string& s) {
   return true;
 }
 
-// Text from the file for a message: one line of printable ASCII, at most `max` characters.
-std::string plain(const std::string& s, std::size_t max = 160) {
-  std::string out;
-  for (char c : s.substr(0, max)) out += c == '\n' ? std::string("; ") : std::string(1, (c >= 0x20 && c < 0x7F) ? c : '?');
-  return s.size() > max ? out + "..." : out;
+// ---- values read from the file -------------------------------------------------------------------
+// Every value is read through a checked Row (pl/schema/detail/sqlite.hpp) against what the schema
+// promises; these are the store's own kinds of value.
+
+std::string read_timestamp(const Row& row, int col, const char* column) {
+  std::string s = row.text(col, column);
+  if (!is_timestamp(s)) row.bad(column, "is not a UTC timestamp (YYYY-MM-DDTHH:MM:SS.sssZ)");
+  return s;
 }
 
-// ---- values read from the file -------------------------------------------------------------------
-// SQLite checks neither column types nor CHECK or NOT NULL constraints on the rows it reads, and a
-// damaged or crafted file may hold anything in them. So every value is checked here against what
-// the schema promises before it reaches a caller; one that breaks the promise is a damaged() error
-// naming the table and column (never the value's text, which may be anything).
-
-class Row {
- public:
-  Row(const Stmt& st, const std::string& path, const char* table) : st_(st), path_(path), table_(table) {}
-
-  std::int64_t integer(int col, const char* column, std::int64_t min = std::numeric_limits<std::int64_t>::min(),
-                       std::int64_t max = std::numeric_limits<std::int64_t>::max()) const {
-    if (st_.type(col) != SQLITE_INTEGER) bad(column, "is not an integer");
-    std::int64_t v = st_.int64(col);
-    if (v < min || v > max) bad(column, "is out of range (" + num(v) + ")");
-    return v;
-  }
-  std::optional<std::int64_t> opt_integer(int col, const char* column, std::int64_t min, std::int64_t max) const {
-    if (st_.is_null(col)) return std::nullopt;
-    return integer(col, column, min, max);
-  }
-  // A finite number in [min, max] (a REAL column reads an integral value as a real).
-  double number(int col, const char* column, double min = -std::numeric_limits<double>::max(),
-                double max = std::numeric_limits<double>::max()) const {
-    int type = st_.type(col);
-    if (type != SQLITE_FLOAT && type != SQLITE_INTEGER) bad(column, "is not a number");
-    double v = st_.real(col);
-    if (!(v >= min && v <= max)) bad(column, "is out of range (" + std::to_string(v) + ")");
-    return v;
-  }
-  double positive(int col, const char* column) const {
-    double v = number(col, column);
-    if (!(v > 0)) bad(column, "is not a positive number (" + std::to_string(v) + ")");
-    return v;
-  }
-  std::string text(int col, const char* column) const {
-    if (st_.type(col) != SQLITE_TEXT) bad(column, "is not text");
-    return st_.text(col);
-  }
-  std::string timestamp(int col, const char* column) const {
-    std::string s = text(col, column);
-    if (!is_timestamp(s)) bad(column, "is not a UTC timestamp (YYYY-MM-DDTHH:MM:SS.sssZ)");
-    return s;
-  }
-  std::string hash(int col, const char* column) const {
-    std::string s = text(col, column);
-    if (!api::is_hash(s)) bad(column, "is not a SHA-256 hash (64 lowercase hex digits)");
-    return s;
-  }
-  VersionState state(int col, const char* column) const {
-    std::string s = text(col, column);
-    if (s == "staged") return VersionState::Staged;
-    if (s == "published") return VersionState::Published;
-    if (s == "retired") return VersionState::Retired;
-    bad(column, "is not one of staged, published, retired");
-  }
-  // A condition computed by the query itself (0 or 1) that must hold.
-  void require(int col, const std::string& what) const {
-    if (st_.type(col) != SQLITE_INTEGER || st_.int64(col) != 1) damaged(path_, std::string(table_) + ": " + what);
-  }
-  [[noreturn]] void bad(const char* column, const std::string& why) const {
-    damaged(path_, std::string(table_) + "." + column + " " + why);
-  }
-
- private:
-  const Stmt& st_;
-  const std::string& path_;
-  const char* table_;
-};
+VersionState read_state(const Row& row, int col, const char* column) {
+  std::string s = row.text(col, column);
+  if (s == "staged") return VersionState::Staged;
+  if (s == "published") return VersionState::Published;
+  if (s == "retired") return VersionState::Retired;
+  row.bad(column, "is not one of staged, published, retired");
+}
 
 constexpr std::int64_t kMaxInt64 = std::numeric_limits<std::int64_t>::max();
 constexpr std::int64_t kMinKey = std::numeric_limits<std::int32_t>::min(), kMaxKey = std::numeric_limits<std::int32_t>::max();
@@ -152,8 +94,8 @@ constexpr const char* kMapColumns =
     "current_version IS NULL OR EXISTS (SELECT 1 FROM versions AS v WHERE v.map_id = maps.id AND "
     "v.number = maps.current_version AND v.state = 'published') FROM maps ";
 
-MapInfo read_map(const Stmt& st, const std::string& path) {
-  Row row(st, path, "maps");
+MapInfo read_map(const Stmt& st) {
+  Row row(st, "maps");
   MapInfo m;
   m.id = row.integer(0, "id");
   m.name = row.text(1, "name");
@@ -163,38 +105,38 @@ MapInfo read_map(const Stmt& st, const std::string& path) {
   m.tile_size = row.positive(5, "tile_size");
   m.voxel_size = row.positive(6, "voxel_size");
   m.current = row.opt_integer(7, "current_version", 1, kMaxInt64);
-  m.created = row.timestamp(8, "created");
+  m.created = read_timestamp(row, 8, "created");
   row.require(9, "map " + m.name + ": current_version " + (m.current ? num(*m.current) : "") +
                      " is not a published version of the map");
   return m;
 }
 
-std::optional<MapInfo> find_map_row(sqlite3* db, const std::string& path, const std::string& name) {
+std::optional<MapInfo> find_map_row(const Db& db, const std::string& name) {
   if (!api::valid_map_name(name)) return std::nullopt;
-  Stmt st(db, path, (std::string(kMapColumns) + "WHERE name = ?1").c_str());
+  Stmt st(db, (std::string(kMapColumns) + "WHERE name = ?1").c_str());
   st.bind_text(1, name);
   if (!st.step()) return std::nullopt;
-  return read_map(st, path);
+  return read_map(st);
 }
 
-std::optional<std::int64_t> find_map_id(sqlite3* db, const std::string& path, const std::string& name) {
+std::optional<std::int64_t> find_map_id(const Db& db, const std::string& name) {
   if (!api::valid_map_name(name)) return std::nullopt;
-  Stmt st(db, path, "SELECT id FROM maps WHERE name = ?1");
+  Stmt st(db, "SELECT id FROM maps WHERE name = ?1");
   st.bind_text(1, name);
   if (!st.step()) return std::nullopt;
   return st.int64(0);
 }
 
-std::int64_t require_map(sqlite3* db, const std::string& path, const std::string& name) {
-  auto id = find_map_id(db, path, name);
-  if (!id) throw Error(path + ": unknown map " + name);
+std::int64_t require_map(const Db& db, const std::string& name) {
+  auto id = find_map_id(db, name);
+  if (!id) throw Error(db.path() + ": unknown map " + name);
   return *id;
 }
 
-std::optional<std::int64_t> current_version(sqlite3* db, const std::string& path, std::int64_t map_id) {
-  Stmt st(db, path, "SELECT current_version FROM maps WHERE id = ?1");
+std::optional<std::int64_t> current_version(const Db& db, std::int64_t map_id) {
+  Stmt st(db, "SELECT current_version FROM maps WHERE id = ?1");
   st.bind_int64(1, map_id);
-  return st.step() ? Row(st, path, "maps").opt_integer(0, "current_version", 1, kMaxInt64) : std::nullopt;
+  return st.step() ? Row(st, "maps").opt_integer(0, "current_version", 1, kMaxInt64) : std::nullopt;
 }
 
 // ---- versions ------------------------------------------------------------------------------------
@@ -216,15 +158,15 @@ std::int64_t exact_total(const Row& row, int col, const char* column) {
   return static_cast<std::int64_t>(row.number(col, column, 0, kExact));
 }
 
-VersionInfo read_version(const Stmt& st, const std::string& path) {
-  Row row(st, path, "versions");
+VersionInfo read_version(const Stmt& st) {
+  Row row(st, "versions");
   VersionInfo v;
   v.number = row.integer(0, "number", 1, kMaxInt64);
   v.parent = row.opt_integer(1, "parent", 1, kMaxInt64);
-  v.state = row.state(2, "state");
-  v.created = row.timestamp(3, "created");
+  v.state = read_state(row, 2, "state");
+  v.created = read_timestamp(row, 3, "created");
   v.note = row.text(4, "note");
-  Row tiles(st, path, "tiles");
+  Row tiles(st, "tiles");
   if (st.int64(8) != 0) tiles.bad("points", "or tiles.bytes is not a non-negative integer");
   v.tiles = tiles.integer(5, "(count)", 0, kMaxInt64);
   v.points = exact_total(tiles, 6, "points (total)");
@@ -234,35 +176,35 @@ VersionInfo read_version(const Stmt& st, const std::string& path) {
   return v;
 }
 
-std::optional<VersionInfo> find_version_row(sqlite3* db, const std::string& path, std::int64_t map_id,
+std::optional<VersionInfo> find_version_row(const Db& db, std::int64_t map_id,
                                             std::int64_t number) {
-  Stmt st(db, path, (std::string(kVersionQuery) + "WHERE v.map_id = ?1 AND v.number = ?2 GROUP BY v.id").c_str());
+  Stmt st(db, (std::string(kVersionQuery) + "WHERE v.map_id = ?1 AND v.number = ?2 GROUP BY v.id").c_str());
   st.bind_int64(1, map_id).bind_int64(2, number);
   if (!st.step()) return std::nullopt;
-  return read_version(st, path);
+  return read_version(st);
 }
 
-std::optional<VersionState> version_state(sqlite3* db, const std::string& path, std::int64_t map_id,
+std::optional<VersionState> version_state(const Db& db, std::int64_t map_id,
                                           std::int64_t number) {
-  Stmt st(db, path, "SELECT state FROM versions WHERE map_id = ?1 AND number = ?2");
+  Stmt st(db, "SELECT state FROM versions WHERE map_id = ?1 AND number = ?2");
   st.bind_int64(1, map_id).bind_int64(2, number);
   if (!st.step()) return std::nullopt;
-  return Row(st, path, "versions").state(0, "state");
+  return read_state(Row(st, "versions"), 0, "state");
 }
 
-VersionState require_version(sqlite3* db, const std::string& path, const std::string& map, std::int64_t map_id,
+VersionState require_version(const Db& db, const std::string& map, std::int64_t map_id,
                              std::int64_t number) {
-  auto state = version_state(db, path, map_id, number);
-  if (!state) throw Error(path + ": map " + map + " has no version " + num(number));
+  auto state = version_state(db, map_id, number);
+  if (!state) throw Error(db.path() + ": map " + map + " has no version " + num(number));
   return *state;
 }
 
 // Tile writes go to staged versions only.
-void require_staged(sqlite3* db, const std::string& path, const std::string& map, std::int64_t map_id,
+void require_staged(const Db& db, const std::string& map, std::int64_t map_id,
                     std::int64_t number) {
-  VersionState state = require_version(db, path, map, map_id, number);
+  VersionState state = require_version(db, map, map_id, number);
   if (state != VersionState::Staged)
-    throw Error(path + ": map " + map + " version " + num(number) + " is " + state_name(state) +
+    throw Error(db.path() + ": map " + map + " version " + num(number) + " is " + state_name(state) +
                 ": tiles can only be changed in a staged version (create a new version)");
 }
 
@@ -272,8 +214,8 @@ constexpr const char* kTileColumns =
     "SELECT t.tx, t.ty, t.hash, t.points, t.bytes, t.min_x, t.min_y, t.min_z, t.max_x, t.max_y, t.max_z "
     "FROM tiles AS t ";
 
-TileRecord read_tile(const Stmt& st, const std::string& path) {
-  Row row(st, path, "tiles");
+TileRecord read_tile(const Stmt& st) {
+  Row row(st, "tiles");
   TileRecord r;
   r.key = TileKey{static_cast<std::int32_t>(row.integer(0, "tx", kMinKey, kMaxKey)),
                   static_cast<std::int32_t>(row.integer(1, "ty", kMinKey, kMaxKey))};
@@ -290,17 +232,17 @@ TileRecord read_tile(const Stmt& st, const std::string& path) {
   return r;
 }
 
-std::optional<std::string> tile_hash(sqlite3* db, const std::string& path, std::int64_t map_id, std::int64_t version,
+std::optional<std::string> tile_hash(const Db& db, std::int64_t map_id, std::int64_t version,
                                      const TileKey& key) {
-  Stmt st(db, path, "SELECT hash FROM tiles WHERE map_id = ?1 AND version = ?2 AND tx = ?3 AND ty = ?4");
+  Stmt st(db, "SELECT hash FROM tiles WHERE map_id = ?1 AND version = ?2 AND tx = ?3 AND ty = ?4");
   st.bind_int64(1, map_id).bind_int64(2, version).bind_int64(3, key.tx).bind_int64(4, key.ty);
   if (!st.step()) return std::nullopt;
-  return Row(st, path, "tiles").hash(0, "hash");
+  return Row(st, "tiles").hash(0, "hash");
 }
 
 // Deletes a blob that no tile uses any more.
-void drop_blob_if_unused(sqlite3* db, const std::string& path, const std::string& hash) {
-  Stmt st(db, path, "DELETE FROM blobs WHERE hash = ?1 AND NOT EXISTS (SELECT 1 FROM tiles WHERE hash = ?1)");
+void drop_blob_if_unused(const Db& db, const std::string& hash) {
+  Stmt st(db, "DELETE FROM blobs WHERE hash = ?1 AND NOT EXISTS (SELECT 1 FROM tiles WHERE hash = ?1)");
   st.bind_text(1, hash).run();
 }
 
@@ -316,213 +258,82 @@ std::string hex(const unsigned char* p, std::size_t n) {
 
 // ---- opening and migrating -----------------------------------------------------------------------
 
-// The schema objects of a database (sqlite_schema): (type, name) -> SQL text, "" for the objects
-// SQLite makes itself.
-using Schema = std::map<std::pair<std::string, std::string>, std::string>;
+// The R*Tree's shadow tables (tile_rtree_node, ...): SQLite makes them, with text that may differ
+// between SQLite versions, so only their presence is compared.
+const std::vector<std::string> kShadowPrefixes = {"tile_rtree_"};
 
-// SQLite's own tables (sqlite_sequence, ...), automatic indexes and the R*Tree's shadow tables: made
-// by SQLite with text that may differ between SQLite versions, so only their presence is compared.
-bool made_by_sqlite(const std::string& name) {
-  return name.rfind("sqlite_", 0) == 0 || name.rfind("tile_rtree_", 0) == 0;
-}
-
-Schema read_schema(sqlite3* db, const std::string& path) {
-  Schema out;
-  Stmt st(db, path, "SELECT type, name, sql FROM sqlite_schema");
-  while (st.step()) {
-    std::string name = st.text(1);
-    out[{st.text(0), name}] = made_by_sqlite(name) ? "" : st.text(2);
-  }
-  return out;
-}
-
-// The schema that migrations 1..version make, built once per version in a private in-memory database.
-const Schema& expected_schema(int version) {
+// The schema that migrations 1..version make, built once per version.
+const sqlite::Schema& expected_schema(int version) {
   static std::mutex mutex;
-  static std::map<int, Schema> built;
+  static std::map<int, sqlite::Schema> built;
   std::lock_guard<std::mutex> lock(mutex);
   auto it = built.find(version);
   if (it != built.end()) return it->second;
-  const std::string path = "(the schema of version " + num(version) + ")";
-  sqlite3* db = nullptr;
-  if (sqlite3_open(":memory:", &db) != SQLITE_OK) {
-    sqlite3_close(db);
-    throw Error("map store: cannot open an in-memory SQLite database (out of memory?)");
-  }
-  try {
-    for (const Migration& m : kMigrations)
-      if (m.number <= version) exec(db, path, m.sql);
-    it = built.emplace(version, read_schema(db, path)).first;
-  } catch (...) {
-    sqlite3_close(db);
-    throw;
-  }
-  sqlite3_close(db);
-  return it->second;
+  std::vector<const char*> scripts;
+  for (const Migration& m : kMigrations)
+    if (m.number <= version) scripts.push_back(m.sql);
+  return built.emplace(version, sqlite::schema_of(kMapStore, scripts, kShadowPrefixes)).first->second;
 }
 
-// Refuses a file whose schema is not exactly the migrations' own for its schema version: a crafted
-// file could otherwise keep a trigger that runs on the store's writes, a view or virtual table in
-// place of a table, or a table without the CHECK constraints the store relies on. Released
-// migrations are never edited, so the text SQLite keeps is byte for byte the migration's.
-// ANALYZE's statistics tables are allowed too (an administrator may run it; they only steer plans).
-void check_schema(sqlite3* db, const std::string& path, int version) {
-  const Schema& want = expected_schema(version);
-  const Schema have = read_schema(db, path);
-  const std::string head = "its schema is not the one of map store schema version " + num(version) + ": ";
-  for (const auto& [key, sql] : want) {
-    auto it = have.find(key);
-    if (it == have.end()) damaged(path, head + key.first + " " + key.second + " is missing");
-    if (it->second != sql) damaged(path, head + key.first + " " + key.second + " is not defined as this software defines it");
-  }
-  for (const auto& [key, sql] : have) {
-    bool statistics = key.first == "table" && (key.second == "sqlite_stat1" || key.second == "sqlite_stat4");
-    if (!want.count(key) && !statistics) damaged(path, head + "it has an unknown " + plain(key.first) + " " + plain(key.second));
-  }
-}
-
-// One read transaction: the values open checks come from one snapshot, even while another
-// connection migrates the file. Ends (COMMIT) when done, else rolls back.
-class ReadSnapshot {
- public:
-  ReadSnapshot(sqlite3* db, const std::string& path) : db_(db), path_(path) { exec(db_, path_, "BEGIN"); }
-  ~ReadSnapshot() {
-    if (open_) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
-  }
-  ReadSnapshot(const ReadSnapshot&) = delete;
-  ReadSnapshot& operator=(const ReadSnapshot&) = delete;
-  void end() {
-    open_ = false;
-    exec(db_, path_, "COMMIT");
-  }
-
- private:
-  sqlite3* db_;
-  const std::string& path_;
-  bool open_ = true;
-};
-
-struct Header {
-  std::int64_t app_id = 0, user_version = 0, objects = 0;
-};
-
-// Errors on the first read that mean SQLite cannot use the file's header or schema: "unsupported
-// file format" (a format number no SQLite writes) and a schema that does not parse are plain
-// SQLITE_ERRORs, and SQLite answers some damaged schemas with SQLITE_NOMEM. (Not: BUSY and LOCKED,
-// another connection at work; IOERR and CANTOPEN, the disk.)
-bool unusable_file(int rc) {
-  int primary = rc & 0xFF;
-  return primary == SQLITE_ERROR || primary == SQLITE_NOMEM || primary == SQLITE_CORRUPT || primary == SQLITE_TOOBIG ||
-         primary == SQLITE_FORMAT || primary == SQLITE_RANGE || primary == SQLITE_MISMATCH;
-}
-
-// The first read of the file: this is where a file that is not SQLite shows.
-Header read_header(sqlite3* db, const std::string& path) {
-  Header h;
-  sqlite3_stmt* st = nullptr;
-  int rc = sqlite3_prepare_v2(db,
-                              "SELECT a.application_id, u.user_version, (SELECT count(*) FROM sqlite_schema) "
-                              "FROM pragma_application_id AS a, pragma_user_version AS u",
-                              -1, &st, nullptr);
-  if (rc == SQLITE_OK) rc = sqlite3_step(st);
-  if (rc == SQLITE_ROW) {
-    h.app_id = sqlite3_column_int64(st, 0);
-    h.user_version = sqlite3_column_int64(st, 1);
-    h.objects = sqlite3_column_int64(st, 2);
-  }
-  sqlite3_finalize(st);
-  if ((rc & 0xFF) == SQLITE_NOTADB)
-    throw Error(path + ": not a SQLite database (" + sqlite3_errmsg(db) + "); is this the right file?");
-  if (rc != SQLITE_ROW && unusable_file(rc))
-    damaged(path, std::string(sqlite3_errmsg(db)) +
-                      ((rc & 0xFF) == SQLITE_NOMEM ? ", which SQLite also reports for some damaged files" : ""));
-  if (rc != SQLITE_ROW) fail(db, path, "reading the database header");
-  // SQLite opens a file whose header has a write version above 2 read-only (the file itself was
-  // found writable before this first read).
-  if (sqlite3_db_readonly(db, "main") == 1)
-    damaged(path, "its header says SQLite may only read it (a file format write version other than 1 or 2)");
-  return h;
-}
-
-void check_header(const Header& h, const std::string& path) {
-  const std::int64_t latest = Store::latest_schema_version();
-  if (h.app_id != 0 && h.app_id != kApplicationId)
-    throw Error(path + ": a SQLite database of another application (application_id " + num(h.app_id) +
-                "), not a map store");
-  if (h.user_version > latest)
-    throw Error(path + ": the map store has schema version " + num(h.user_version) + ", newer than this build knows (" +
-                num(latest) + "): upgrade the PointLocalization software");
-  if (h.user_version < 0) damaged(path, "negative schema version " + num(h.user_version));
-  if (h.user_version == 0 && h.objects > 0)
-    throw Error(path + ": a SQLite database that is not a map store (it has tables but no schema version)");
-  if (h.user_version > 0 && h.app_id != kApplicationId)
-    throw Error(path + ": a SQLite database that is not a map store (application_id " + num(h.app_id) + ")");
-}
-
-// PRAGMA quick_check: every page and record of the file is well formed (not the indexes' content).
-void quick_check(sqlite3* db, const std::string& path) {
-  Stmt st(db, path, "PRAGMA quick_check");
-  std::string first = st.step() ? st.text(0) : "no answer";
-  if (first != "ok") damaged(path, "quick_check: " + plain(first));
-}
-
-std::string journal_mode(sqlite3* db, const std::string& path) {
-  Stmt st(db, path, "PRAGMA journal_mode");
-  return st.step() ? st.text(0) : "";
+// The schema must be exactly the migrations' own for the file's schema version (check_schema says
+// why). Released migrations are never edited, so the text SQLite keeps is byte for byte the
+// migration's.
+void check_schema(const Db& db, int version) {
+  sqlite::check_schema(db, expected_schema(version),
+                       "its schema is not the one of map store schema version " + num(version), kShadowPrefixes);
 }
 
 // Everything open checks before it writes anything (the switch to WAL, migrations), so that a file
 // that fails a check is left exactly as it was. Opening a current WAL store writes nothing at all;
 // when open will write, the whole file is checked first (PRAGMA quick_check reads every page: once
 // per file, when it is migrated or switched to WAL, e.g. a restored backup).
-void check_before_writing(sqlite3* db, const std::string& path, bool create) {
-  ReadSnapshot snapshot(db, path);
-  const Header h = read_header(db, path);
-  check_header(h, path);
+void check_before_writing(const Db& db, bool create) {
+  sqlite::ReadSnapshot snapshot(db);
+  const sqlite::Header h = sqlite::read_header(db);
+  sqlite::check_identity(db, h, Store::latest_schema_version());
   if (h.user_version == 0 && h.objects == 0) {
     // An empty database: nothing in it to check or to lose. Without `create` it was expected to be a
     // store, and an empty file is most likely one that lost its content.
     if (!create)
-      throw Error(path + ": the file is empty, not a map store (was it truncated?): restore it from a backup, or create "
-                         "a store with pl-map");
+      throw Error(db.path() + ": the file is empty, not a map store (was it truncated?): restore it from a backup, or "
+                              "create a store with pl-map");
     snapshot.end();
     return;
   }
-  check_schema(db, path, static_cast<int>(h.user_version));
-  if (journal_mode(db, path) != "wal" || h.user_version < Store::latest_schema_version()) quick_check(db, path);
+  check_schema(db, static_cast<int>(h.user_version));
+  if (sqlite::journal_mode(db) != "wal" || h.user_version < Store::latest_schema_version()) sqlite::quick_check(db);
   snapshot.end();
 }
 
-void migrate(sqlite3* db, const std::string& path) {
+void migrate(const Db& db) {
   const int latest = Store::latest_schema_version();
   // Foreign keys stay off while migrating (a later migration may rebuild a table, which the
   // enforcement would block); each migration checks them before it commits.
-  exec(db, path, "PRAGMA foreign_keys = OFF");
+  exec(db, "PRAGMA foreign_keys = OFF");
   for (const Migration& m : kMigrations) {
-    if (pragma_int(db, path, "PRAGMA user_version") >= m.number) continue;
-    WriteScope tx(db, path);
+    if (pragma_int(db, "PRAGMA user_version") >= m.number) continue;
+    WriteScope tx(db);
     // Another connection may have migrated while this one waited for the write lock.
-    std::int64_t now = pragma_int(db, path, "PRAGMA user_version");
-    if (now > latest)
-      throw Error(path + ": the map store has schema version " + num(now) + ", newer than this build knows (" +
-                  num(latest) + "): upgrade the PointLocalization software");
+    std::int64_t now = pragma_int(db, "PRAGMA user_version");
+    if (now > latest) sqlite::refuse_newer(db, now, latest);
     if (now >= m.number) continue;
     char* err = nullptr;
-    if (sqlite3_exec(db, m.sql, nullptr, nullptr, &err) != SQLITE_OK) {
-      std::string msg = err ? err : sqlite3_errmsg(db);
+    if (sqlite3_exec(db.get(), m.sql, nullptr, nullptr, &err) != SQLITE_OK) {
+      std::string msg = err ? err : sqlite3_errmsg(db.get());
       sqlite3_free(err);
-      throw Error(path + ": schema migration " + m.name + " failed: " + msg);
+      throw Error(db.path() + ": schema migration " + m.name + " failed: " + msg);
     }
     {
-      Stmt fk(db, path, "PRAGMA foreign_key_check");
+      Stmt fk(db, "PRAGMA foreign_key_check");
       if (fk.step())
-        throw Error(path + ": schema migration " + m.name + " left a foreign key violation in table " + fk.text(0));
+        throw Error(db.path() + ": schema migration " + m.name + " left a foreign key violation in table " +
+                    fk.text(0));
     }
     // PRAGMA takes no bound parameters; the number is this build's own integer.
-    exec(db, path, ("PRAGMA user_version = " + num(m.number)).c_str());
+    exec(db, ("PRAGMA user_version = " + num(m.number)).c_str());
     tx.commit();
   }
-  exec(db, path, "PRAGMA foreign_keys = ON");
+  exec(db, "PRAGMA foreign_keys = ON");
 }
 
 }  // namespace
@@ -588,43 +399,31 @@ Store::~Store() {
 Store Store::open(const std::string& path, bool create) {
   if (path.empty()) throw Error("map store: empty database path");
   Store store(path);
-  sqlite3* db = nullptr;
+  sqlite3* handle = nullptr;
   int flags = SQLITE_OPEN_READWRITE | (create ? SQLITE_OPEN_CREATE : 0);
-  int rc = sqlite3_open_v2(path.c_str(), &db, flags, nullptr);
-  store.db_ = db;  // closed by ~Store even when opening failed
+  int rc = sqlite3_open_v2(path.c_str(), &handle, flags, nullptr);
+  store.db_ = handle;  // closed by ~Store even when opening failed
   if (rc != SQLITE_OK) {
-    std::string msg = db ? sqlite3_errmsg(db) : sqlite3_errstr(rc);
+    std::string msg = handle ? sqlite3_errmsg(handle) : sqlite3_errstr(rc);
     throw Error(path + ": cannot open the map store: " + msg + (create ? "" : " (does the file exist?)"));
   }
-  sqlite3_extended_result_codes(db, 1);
-  sqlite3_busy_timeout(db, kBusyTimeoutMs);
-  detail::harden(db, path);
-  if (sqlite3_db_readonly(db, "main") == 1)
-    throw Error(path + ": the map store is read-only (check the permissions of the file and its folder)");
-  check_before_writing(db, path, create);
-  detail::trust_schema(db, path);  // the schema is the migrations' own, or there is none yet
-
-  // WAL: readers and one writer at a time, across threads and processes. Persistent in the file.
-  {
-    Stmt st(db, path, "PRAGMA journal_mode = WAL");
-    std::string mode = st.step() ? st.text(0) : "";
-    if (mode != "wal" && path != ":memory:")
-      throw Error(path + ": cannot switch the map store to WAL journal mode (journal_mode is \"" + mode +
-                  "\"; WAL needs a local file system)");
-  }
-  exec(db, path, "PRAGMA synchronous = NORMAL");
-  migrate(db, path);  // ends with foreign_keys = ON
+  const Db db(handle, path, kMapStore);
+  sqlite::prepare_connection(db);
+  check_before_writing(db, create);
+  sqlite::trust_schema(db);  // the schema is the migrations' own, or there is none yet
+  sqlite::use_wal(db);
+  migrate(db);  // ends with foreign_keys = ON
   return store;
 }
 
 int Store::schema_version() const {
-  return static_cast<int>(pragma_int(handle(db_, path_), path_, "PRAGMA user_version"));
+  return static_cast<int>(pragma_int(handle(db_, path_), "PRAGMA user_version"));
 }
 
 // ---- maps ----------------------------------------------------------------------------------------
 
 MapInfo Store::create_map(const std::string& name, const GeoPoint& origin, double tile_size, double voxel_size) {
-  sqlite3* db = handle(db_, path_);
+  const Db db = handle(db_, path_);
   if (!api::valid_map_name(name))
     throw Error(path_ + ": invalid map name \"" + name + "\": use 1 to 64 of A-Z a-z 0-9 _ . -");
   if (!(origin.lat_deg >= -90 && origin.lat_deg <= 90) || !(origin.lon_deg >= -180 && origin.lon_deg <= 180) ||
@@ -634,9 +433,9 @@ MapInfo Store::create_map(const std::string& name, const GeoPoint& origin, doubl
                 "and a finite altitude (degrees, metres)");
   if (!(tile_size > 0) || !std::isfinite(tile_size) || !(voxel_size > 0) || !std::isfinite(voxel_size))
     throw Error(path_ + ": map " + name + ": tile and voxel sizes must be positive numbers of metres");
-  WriteScope tx(db, path_);
-  if (find_map_id(db, path_, name)) throw Error(path_ + ": map " + name + " already exists");
-  Stmt ins(db, path_,
+  WriteScope tx(db);
+  if (find_map_id(db, name)) throw Error(path_ + ": map " + name + " already exists");
+  Stmt ins(db,
            "INSERT INTO maps (name, origin_lat, origin_lon, origin_alt, tile_size, voxel_size) "
            "VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
   ins.bind_text(1, name)
@@ -646,41 +445,41 @@ MapInfo Store::create_map(const std::string& name, const GeoPoint& origin, doubl
       .bind_double(5, tile_size)
       .bind_double(6, voxel_size)
       .run();
-  auto info = find_map_row(db, path_, name);
+  auto info = find_map_row(db, name);
   if (!info) throw Error(path_ + ": map " + name + " vanished after it was created");
   tx.commit();
   return *info;
 }
 
 std::optional<MapInfo> Store::find_map(const std::string& name) const {
-  return find_map_row(handle(db_, path_), path_, name);
+  return find_map_row(handle(db_, path_), name);
 }
 
 std::vector<MapInfo> Store::list_maps() const {
-  Stmt st(handle(db_, path_), path_, (std::string(kMapColumns) + "ORDER BY name").c_str());
+  Stmt st(handle(db_, path_), (std::string(kMapColumns) + "ORDER BY name").c_str());
   std::vector<MapInfo> out;
-  while (st.step()) out.push_back(read_map(st, path_));
+  while (st.step()) out.push_back(read_map(st));
   return out;
 }
 
 // ---- versions ------------------------------------------------------------------------------------
 
 VersionInfo Store::create_version(const std::string& map, std::optional<std::int64_t> parent, const std::string& note) {
-  sqlite3* db = handle(db_, path_);
-  WriteScope tx(db, path_);
-  std::int64_t map_id = require_map(db, path_, map);
+  const Db db = handle(db_, path_);
+  WriteScope tx(db);
+  std::int64_t map_id = require_map(db, map);
   if (parent) {
-    require_version(db, path_, map, map_id, *parent);
+    require_version(db, map, map_id, *parent);
   } else {
-    parent = current_version(db, path_, map_id);  // none before the first publish: an empty version
+    parent = current_version(db, map_id);  // none before the first publish: an empty version
   }
   std::int64_t number = 1;
   {
-    Stmt st(db, path_, "SELECT max(number) FROM versions WHERE map_id = ?1");
+    Stmt st(db, "SELECT max(number) FROM versions WHERE map_id = ?1");
     st.bind_int64(1, map_id);
-    if (st.step() && !st.is_null(0)) number = Row(st, path_, "versions").integer(0, "number", 1, kMaxInt64 - 1) + 1;
+    if (st.step() && !st.is_null(0)) number = Row(st, "versions").integer(0, "number", 1, kMaxInt64 - 1) + 1;
   }
-  Stmt(db, path_, "INSERT INTO versions (map_id, number, parent, note) VALUES (?1, ?2, ?3, ?4)")
+  Stmt(db, "INSERT INTO versions (map_id, number, parent, note) VALUES (?1, ?2, ?3, ?4)")
       .bind_int64(1, map_id)
       .bind_int64(2, number)
       .bind_opt_int64(3, parent)
@@ -688,7 +487,7 @@ VersionInfo Store::create_version(const std::string& map, std::optional<std::int
       .run();
   if (parent) {
     // Rows only: the copies point at the same blobs. The R*Tree entries come from the insert trigger.
-    Stmt(db, path_,
+    Stmt(db,
          "INSERT INTO tiles (map_id, version, tx, ty, hash, points, bytes, min_x, min_y, min_z, max_x, max_y, max_z) "
          "SELECT map_id, ?3, tx, ty, hash, points, bytes, min_x, min_y, min_z, max_x, max_y, max_z FROM tiles "
          "WHERE map_id = ?1 AND version = ?2 ORDER BY tx, ty")
@@ -697,54 +496,54 @@ VersionInfo Store::create_version(const std::string& map, std::optional<std::int
         .bind_int64(3, number)
         .run();
   }
-  auto info = find_version_row(db, path_, map_id, number);
+  auto info = find_version_row(db, map_id, number);
   if (!info) throw Error(path_ + ": map " + map + " version " + num(number) + " vanished after it was created");
   tx.commit();
   return *info;
 }
 
 std::optional<VersionInfo> Store::find_version(const std::string& map, std::int64_t number) const {
-  sqlite3* db = handle(db_, path_);
-  auto map_id = find_map_id(db, path_, map);
+  const Db db = handle(db_, path_);
+  auto map_id = find_map_id(db, map);
   if (!map_id) return std::nullopt;
-  return find_version_row(db, path_, *map_id, number);
+  return find_version_row(db, *map_id, number);
 }
 
 std::vector<VersionInfo> Store::list_versions(const std::string& map) const {
-  sqlite3* db = handle(db_, path_);
+  const Db db = handle(db_, path_);
   std::vector<VersionInfo> out;
-  auto map_id = find_map_id(db, path_, map);
+  auto map_id = find_map_id(db, map);
   if (!map_id) return out;
-  Stmt st(db, path_, (std::string(kVersionQuery) + "WHERE v.map_id = ?1 GROUP BY v.id ORDER BY v.number").c_str());
+  Stmt st(db, (std::string(kVersionQuery) + "WHERE v.map_id = ?1 GROUP BY v.id ORDER BY v.number").c_str());
   st.bind_int64(1, *map_id);
-  while (st.step()) out.push_back(read_version(st, path_));
+  while (st.step()) out.push_back(read_version(st));
   return out;
 }
 
 void Store::publish(const std::string& map, std::int64_t number) {
-  sqlite3* db = handle(db_, path_);
-  WriteScope tx(db, path_);  // one IMMEDIATE transaction (a savepoint inside a Transaction)
-  std::int64_t map_id = require_map(db, path_, map);
-  VersionState state = require_version(db, path_, map, map_id, number);
+  const Db db = handle(db_, path_);
+  WriteScope tx(db);  // one IMMEDIATE transaction (a savepoint inside a Transaction)
+  std::int64_t map_id = require_map(db, map);
+  VersionState state = require_version(db, map, map_id, number);
   if (state != VersionState::Staged)
     throw Error(path_ + ": map " + map + " version " + num(number) + " is " + state_name(state) +
                 ": only a staged version can be published");
-  auto old = current_version(db, path_, map_id);
+  auto old = current_version(db, map_id);
   // Retire the old one first: the schema allows one published version per map.
   if (old) {
-    Stmt(db, path_, "UPDATE versions SET state = 'retired' WHERE map_id = ?1 AND number = ?2")
+    Stmt(db, "UPDATE versions SET state = 'retired' WHERE map_id = ?1 AND number = ?2")
         .bind_int64(1, map_id)
         .bind_int64(2, *old)
         .run();
   }
-  Stmt(db, path_,
+  Stmt(db,
        "UPDATE versions SET state = 'published', published = strftime('%Y-%m-%dT%H:%M:%fZ', 'now'), replaces = ?3 "
        "WHERE map_id = ?1 AND number = ?2")
       .bind_int64(1, map_id)
       .bind_int64(2, number)
       .bind_opt_int64(3, old)
       .run();
-  Stmt(db, path_, "UPDATE maps SET current_version = ?2 WHERE id = ?1")
+  Stmt(db, "UPDATE maps SET current_version = ?2 WHERE id = ?1")
       .bind_int64(1, map_id)
       .bind_int64(2, number)
       .run();
@@ -752,33 +551,33 @@ void Store::publish(const std::string& map, std::int64_t number) {
 }
 
 std::int64_t Store::rollback(const std::string& map) {
-  sqlite3* db = handle(db_, path_);
-  WriteScope tx(db, path_);
-  std::int64_t map_id = require_map(db, path_, map);
-  auto cur = current_version(db, path_, map_id);
+  const Db db = handle(db_, path_);
+  WriteScope tx(db);
+  std::int64_t map_id = require_map(db, map);
+  auto cur = current_version(db, map_id);
   if (!cur) throw Error(path_ + ": map " + map + " has no published version to roll back");
   std::optional<std::int64_t> prev;
   {
-    Stmt st(db, path_, "SELECT replaces FROM versions WHERE map_id = ?1 AND number = ?2");
+    Stmt st(db, "SELECT replaces FROM versions WHERE map_id = ?1 AND number = ?2");
     st.bind_int64(1, map_id).bind_int64(2, *cur);
-    if (st.step()) prev = Row(st, path_, "versions").opt_integer(0, "replaces", 1, kMaxInt64);
+    if (st.step()) prev = Row(st, "versions").opt_integer(0, "replaces", 1, kMaxInt64);
   }
   if (!prev)
     throw Error(path_ + ": map " + map + ": version " + num(*cur) +
                 " was the first version published; there is no earlier one to roll back to");
-  VersionState prev_state = require_version(db, path_, map, map_id, *prev);
+  VersionState prev_state = require_version(db, map, map_id, *prev);
   if (prev_state != VersionState::Retired)
     throw Error(path_ + ": map " + map + ": cannot roll back to version " + num(*prev) + ", it is " +
                 state_name(prev_state));
-  Stmt(db, path_, "UPDATE versions SET state = 'retired' WHERE map_id = ?1 AND number = ?2")
+  Stmt(db, "UPDATE versions SET state = 'retired' WHERE map_id = ?1 AND number = ?2")
       .bind_int64(1, map_id)
       .bind_int64(2, *cur)
       .run();
-  Stmt(db, path_, "UPDATE versions SET state = 'published' WHERE map_id = ?1 AND number = ?2")
+  Stmt(db, "UPDATE versions SET state = 'published' WHERE map_id = ?1 AND number = ?2")
       .bind_int64(1, map_id)
       .bind_int64(2, *prev)
       .run();
-  Stmt(db, path_, "UPDATE maps SET current_version = ?2 WHERE id = ?1")
+  Stmt(db, "UPDATE maps SET current_version = ?2 WHERE id = ?1")
       .bind_int64(1, map_id)
       .bind_int64(2, *prev)
       .run();
@@ -791,13 +590,13 @@ std::int64_t Store::rollback(const std::string& map) {
 TileRecord Store::put_tile(const std::string& map, std::int64_t version, const TileKey& key,
                            std::string_view draco_bytes, std::int64_t points, double min_x, double min_y, double min_z,
                            double max_x, double max_y, double max_z) {
-  sqlite3* db = handle(db_, path_);
+  const Db db = handle(db_, path_);
   const std::string where =
       path_ + ": map " + map + " version " + num(version) + " tile (" + num(key.tx) + ", " + num(key.ty) + ")";
   if (draco_bytes.empty()) throw Error(where + ": empty tile data");
-  if (draco_bytes.size() > detail::kMaxValueBytes)
+  if (draco_bytes.size() > sqlite::kMaxValueBytes)
     throw Error(where + ": " + num(static_cast<std::int64_t>(draco_bytes.size())) +
-                " bytes of tile data, more than the store's limit of " + num(detail::kMaxValueBytes >> 20) + " MiB");
+                " bytes of tile data, more than the store's limit of " + num(sqlite::kMaxValueBytes >> 20) + " MiB");
   if (points < 0) throw Error(where + ": negative point count");
   for (double v : {min_x, min_y, min_z, max_x, max_y, max_z})
     if (!std::isfinite(v)) throw Error(where + ": bounds must be finite numbers");
@@ -811,18 +610,18 @@ TileRecord Store::put_tile(const std::string& map, std::int64_t version, const T
   rec.min_x = min_x, rec.min_y = min_y, rec.min_z = min_z;
   rec.max_x = max_x, rec.max_y = max_y, rec.max_z = max_z;
 
-  WriteScope tx(db, path_);
-  std::int64_t map_id = require_map(db, path_, map);
-  require_staged(db, path_, map, map_id, version);
-  auto old_hash = tile_hash(db, path_, map_id, version, key);
+  WriteScope tx(db);
+  std::int64_t map_id = require_map(db, map);
+  require_staged(db, map, map_id, version);
+  auto old_hash = tile_hash(db, map_id, version, key);
   // The blob once per content: a second tile with the same bytes only adds a row.
-  Stmt(db, path_, "INSERT INTO blobs (hash, bytes, size) VALUES (?1, ?2, ?3) ON CONFLICT (hash) DO NOTHING")
+  Stmt(db, "INSERT INTO blobs (hash, bytes, size) VALUES (?1, ?2, ?3) ON CONFLICT (hash) DO NOTHING")
       .bind_text(1, rec.hash)
       .bind_blob_static(2, draco_bytes)
       .bind_int64(3, rec.bytes)
       .run();
   // Same key: update the row in place (same id), and not at all when nothing changed.
-  Stmt(db, path_,
+  Stmt(db,
        "INSERT INTO tiles (map_id, version, tx, ty, hash, points, bytes, min_x, min_y, min_z, max_x, max_y, max_z) "
        "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13) "
        "ON CONFLICT (map_id, version, tx, ty) DO UPDATE SET hash = excluded.hash, points = excluded.points, "
@@ -845,63 +644,62 @@ TileRecord Store::put_tile(const std::string& map, std::int64_t version, const T
       .bind_double(12, max_y)
       .bind_double(13, max_z)
       .run();
-  if (old_hash && *old_hash != rec.hash) drop_blob_if_unused(db, path_, *old_hash);
+  if (old_hash && *old_hash != rec.hash) drop_blob_if_unused(db, *old_hash);
   tx.commit();
   return rec;
 }
 
 bool Store::delete_tile(const std::string& map, std::int64_t version, const TileKey& key) {
-  sqlite3* db = handle(db_, path_);
-  WriteScope tx(db, path_);
-  std::int64_t map_id = require_map(db, path_, map);
-  require_staged(db, path_, map, map_id, version);
-  auto hash = tile_hash(db, path_, map_id, version, key);
+  const Db db = handle(db_, path_);
+  WriteScope tx(db);
+  std::int64_t map_id = require_map(db, map);
+  require_staged(db, map, map_id, version);
+  auto hash = tile_hash(db, map_id, version, key);
   if (!hash) return false;
-  Stmt(db, path_, "DELETE FROM tiles WHERE map_id = ?1 AND version = ?2 AND tx = ?3 AND ty = ?4")
+  Stmt(db, "DELETE FROM tiles WHERE map_id = ?1 AND version = ?2 AND tx = ?3 AND ty = ?4")
       .bind_int64(1, map_id)
       .bind_int64(2, version)
       .bind_int64(3, key.tx)
       .bind_int64(4, key.ty)
       .run();
-  drop_blob_if_unused(db, path_, *hash);
+  drop_blob_if_unused(db, *hash);
   tx.commit();
   return true;
 }
 
 std::optional<TileRecord> Store::find_tile(const std::string& map, std::int64_t version, const TileKey& key) const {
-  sqlite3* db = handle(db_, path_);
-  auto map_id = find_map_id(db, path_, map);
+  const Db db = handle(db_, path_);
+  auto map_id = find_map_id(db, map);
   if (!map_id) return std::nullopt;
-  Stmt st(db, path_,
+  Stmt st(db,
           (std::string(kTileColumns) + "WHERE t.map_id = ?1 AND t.version = ?2 AND t.tx = ?3 AND t.ty = ?4").c_str());
   st.bind_int64(1, *map_id).bind_int64(2, version).bind_int64(3, key.tx).bind_int64(4, key.ty);
   if (!st.step()) return std::nullopt;
-  return read_tile(st, path_);
+  return read_tile(st);
 }
 
 std::vector<TileRecord> Store::list_tiles(const std::string& map, std::int64_t version) const {
-  sqlite3* db = handle(db_, path_);
+  const Db db = handle(db_, path_);
   std::vector<TileRecord> out;
-  auto map_id = find_map_id(db, path_, map);
+  auto map_id = find_map_id(db, map);
   if (!map_id) return out;
-  Stmt st(db, path_,
-          (std::string(kTileColumns) + "WHERE t.map_id = ?1 AND t.version = ?2 ORDER BY t.tx, t.ty").c_str());
+  Stmt st(db, (std::string(kTileColumns) + "WHERE t.map_id = ?1 AND t.version = ?2 ORDER BY t.tx, t.ty").c_str());
   st.bind_int64(1, *map_id).bind_int64(2, version);
-  while (st.step()) out.push_back(read_tile(st, path_));
+  while (st.step()) out.push_back(read_tile(st));
   return out;
 }
 
 std::vector<TileRecord> Store::tiles_in_box(const std::string& map, std::int64_t version, double min_x, double min_y,
                                             double max_x, double max_y) const {
-  sqlite3* db = handle(db_, path_);
+  const Db db = handle(db_, path_);
   std::vector<TileRecord> out;
   if (!(min_x <= max_x && min_y <= max_y)) return out;  // inverted or NaN: nothing
-  auto map_id = find_map_id(db, path_, map);
+  auto map_id = find_map_id(db, map);
   if (!map_id) return out;
   // CROSS JOIN keeps the R*Tree as the outer loop (SQLite does not reorder it), so the search is
   // spatial first; the R*Tree's float32 boxes are rounded outwards, hence the exact re-check on
   // tiles' own bounds. The R*Tree holds every version's tiles; the map/version filter follows.
-  Stmt st(db, path_,
+  Stmt st(db,
           "SELECT t.tx, t.ty, t.hash, t.points, t.bytes, t.min_x, t.min_y, t.min_z, t.max_x, t.max_y, t.max_z "
           "FROM tile_rtree AS r CROSS JOIN tiles AS t ON t.id = r.id "
           "WHERE r.min_x <= ?5 AND r.max_x >= ?3 AND r.min_y <= ?6 AND r.max_y >= ?4 "
@@ -914,17 +712,16 @@ std::vector<TileRecord> Store::tiles_in_box(const std::string& map, std::int64_t
       .bind_double(4, min_y)
       .bind_double(5, max_x)
       .bind_double(6, max_y);
-  while (st.step()) out.push_back(read_tile(st, path_));
+  while (st.step()) out.push_back(read_tile(st));
   return out;
 }
 
 std::optional<std::string> Store::blob(const std::string& hash) const {
-  Stmt st(handle(db_, path_), path_, "SELECT bytes FROM blobs WHERE hash = ?1");
+  Stmt st(handle(db_, path_), "SELECT bytes FROM blobs WHERE hash = ?1");
   st.bind_text(1, hash);
   if (!st.step()) return std::nullopt;
-  Row row(st, path_, "blobs");
-  if (st.type(0) != SQLITE_BLOB) row.bad("bytes", "is not a blob");
-  std::string bytes = st.blob(0);
+  Row row(st, "blobs");
+  std::string bytes = row.blob(0, "bytes");
   // SQLite keeps no checksums of its own: bytes that changed on disk are only caught here, and are
   // never handed out (the server would serve them as immutable under a hash they do not have).
   if (content_hash(bytes) != hash) row.bad("bytes", "of blob " + plain(hash) + " do not match its content hash");
@@ -932,7 +729,7 @@ std::optional<std::string> Store::blob(const std::string& hash) const {
 }
 
 bool Store::has_blob(const std::string& hash) const {
-  Stmt st(handle(db_, path_), path_, "SELECT 1 FROM blobs WHERE hash = ?1");
+  Stmt st(handle(db_, path_), "SELECT 1 FROM blobs WHERE hash = ?1");
   st.bind_text(1, hash);
   return st.step();
 }
@@ -940,18 +737,18 @@ bool Store::has_blob(const std::string& hash) const {
 // ---- tokens and the upload log -------------------------------------------------------------------
 
 void Store::add_token(const std::string& token, Role role, const std::string& note) {
-  sqlite3* db = handle(db_, path_);
+  const Db db = handle(db_, path_);
   if (token.empty()) throw Error(path_ + ": empty token");
   if (!parse_role(role_name(role))) throw Error(path_ + ": invalid role " + num(static_cast<int>(role)));
   std::string hash = content_hash(token);
-  WriteScope tx(db, path_);
+  WriteScope tx(db);
   {
-    Stmt st(db, path_, "SELECT 1 FROM tokens WHERE hash = ?1");
+    Stmt st(db, "SELECT 1 FROM tokens WHERE hash = ?1");
     st.bind_text(1, hash);
     // Never echo the token itself into a message.
     if (st.step()) throw Error(path_ + ": this token is already registered");
   }
-  Stmt(db, path_, "INSERT INTO tokens (hash, role, note) VALUES (?1, ?2, ?3)")
+  Stmt(db, "INSERT INTO tokens (hash, role, note) VALUES (?1, ?2, ?3)")
       .bind_text(1, hash)
       .bind_text(2, role_name(role))
       .bind_text(3, note)
@@ -960,12 +757,12 @@ void Store::add_token(const std::string& token, Role role, const std::string& no
 }
 
 std::optional<Role> Store::check_token(const std::string& token) const {
-  sqlite3* db = handle(db_, path_);
+  const Db db = handle(db_, path_);
   if (token.empty()) return std::nullopt;
-  Stmt st(db, path_, "SELECT role FROM tokens WHERE hash = ?1");
+  Stmt st(db, "SELECT role FROM tokens WHERE hash = ?1");
   st.bind_text(1, content_hash(token));
   if (!st.step()) return std::nullopt;
-  Row row(st, path_, "tokens");
+  Row row(st, "tokens");
   auto role = parse_role(row.text(0, "role"));
   if (!role) row.bad("role", "is not one of read, upload, admin");
   return role;
@@ -973,9 +770,9 @@ std::optional<Role> Store::check_token(const std::string& token) const {
 
 void Store::log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
                        const std::string& detail, const std::string& who) {
-  sqlite3* db = handle(db_, path_);
+  const Db db = handle(db_, path_);
   if (action.empty()) throw Error(path_ + ": upload log entry without an action");
-  Stmt(db, path_, "INSERT INTO upload_log (map, version, action, detail, who) VALUES (?1, ?2, ?3, ?4, ?5)")
+  Stmt(db, "INSERT INTO upload_log (map, version, action, detail, who) VALUES (?1, ?2, ?3, ?4, ?5)")
       .bind_text(1, map)
       .bind_opt_int64(2, version)
       .bind_text(3, action)
@@ -985,15 +782,15 @@ void Store::log_upload(const std::string& map, std::optional<std::int64_t> versi
 }
 
 std::vector<Store::LogEntry> Store::upload_log(const std::string& map) const {
-  Stmt st(handle(db_, path_), path_,
+  Stmt st(handle(db_, path_),
           "SELECT id, at, map, version, action, detail, who FROM upload_log WHERE map = ?1 ORDER BY id");
   st.bind_text(1, map);
   std::vector<LogEntry> out;
   while (st.step()) {
-    Row row(st, path_, "upload_log");
+    Row row(st, "upload_log");
     LogEntry e;
     e.id = row.integer(0, "id");
-    e.at = row.timestamp(1, "at");
+    e.at = read_timestamp(row, 1, "at");
     e.map = row.text(2, "map");
     e.version = row.opt_integer(3, "version", std::numeric_limits<std::int64_t>::min(), kMaxInt64);
     e.action = row.text(4, "action");
@@ -1007,50 +804,49 @@ std::vector<Store::LogEntry> Store::upload_log(const std::string& map) const {
 // ---- transactions and maintenance ----------------------------------------------------------------
 
 Store::Transaction::Transaction(Store& store) : store_(store) {
-  nested_ = detail::begin_write(handle(store_.db_, store_.path_), store_.path_, "pl_transaction");
+  nested_ = sqlite::begin_write(handle(store_.db_, store_.path_), "pl_transaction");
 }
 
 void Store::Transaction::commit() {
   if (done_) throw Error(store_.path_ + ": transaction committed twice");
-  detail::commit_write(handle(store_.db_, store_.path_), store_.path_, "pl_transaction", nested_);
+  sqlite::commit_write(handle(store_.db_, store_.path_), "pl_transaction", nested_);
   done_ = true;
 }
 
 Store::Transaction::~Transaction() {
   if (!done_ && store_.db_)
-    detail::rollback_write_quietly(static_cast<sqlite3*>(store_.db_), "pl_transaction", nested_);
+    sqlite::rollback_write_quietly(static_cast<sqlite3*>(store_.db_), "pl_transaction", nested_);
 }
 
 std::int64_t Store::database_bytes() const {
-  sqlite3* db = handle(db_, path_);
-  return pragma_int(db, path_, "PRAGMA page_count") * pragma_int(db, path_, "PRAGMA page_size");
+  const Db db = handle(db_, path_);
+  return pragma_int(db, "PRAGMA page_count") * pragma_int(db, "PRAGMA page_size");
 }
 
 bool Store::integrity_ok() const {
-  sqlite3* db = handle(db_, path_);
+  const Db db = handle(db_, path_);
   try {
     {
-      Stmt st(db, path_, "PRAGMA integrity_check");
+      Stmt st(db, "PRAGMA integrity_check");
       if (!st.step() || st.text(0) != "ok" || st.step()) return false;
     }
     {
-      Stmt st(db, path_, "PRAGMA foreign_key_check");
+      Stmt st(db, "PRAGMA foreign_key_check");
       if (st.step()) return false;
     }
     {
-      Stmt st(db, path_, "SELECT rtreecheck('tile_rtree')");
+      Stmt st(db, "SELECT rtreecheck('tile_rtree')");
       if (!st.step() || st.text(0) != "ok") return false;
     }
     {
       // One R*Tree entry per tile, with a box that contains the tile's xy box.
-      Stmt st(db, path_,
-              "SELECT (SELECT count(*) FROM tiles) = (SELECT count(*) FROM tile_rtree) AND NOT EXISTS ("
+      Stmt st(db, "SELECT (SELECT count(*) FROM tiles) = (SELECT count(*) FROM tile_rtree) AND NOT EXISTS ("
               "SELECT 1 FROM tiles AS t WHERE NOT EXISTS (SELECT 1 FROM tile_rtree AS r WHERE r.id = t.id "
               "AND r.min_x <= t.min_x AND r.max_x >= t.max_x AND r.min_y <= t.min_y AND r.max_y >= t.max_y))");
       if (!st.step() || st.int64(0) != 1) return false;
     }
   } catch (const Error&) {
-    int code = sqlite3_errcode(db) & 0xFF;
+    int code = sqlite3_errcode(db.get()) & 0xFF;
     if (code == SQLITE_CORRUPT || code == SQLITE_NOTADB) return false;
     throw;
   }

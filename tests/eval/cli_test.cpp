@@ -291,9 +291,11 @@ TEST(EvalCli, TimingCsv) {
       "timing --json");
   EXPECT_EQ(j.at("column"), "registration_ms");
   EXPECT_EQ(j.at("count"), 200);
-  EXPECT_DOUBLE_EQ(j.at("p50").get<double>(), 50.0);
-  EXPECT_DOUBLE_EQ(j.at("p90").get<double>(), 90.0);
-  EXPECT_DOUBLE_EQ(j.at("p99").get<double>(), 99.0);
+  // Each of 1..100 twice: h = 199p/100 over 1 1 2 2 ... 100 100 (interpolated percentiles).
+  EXPECT_DOUBLE_EQ(j.at("p50").get<double>(), 50.5);   // h = 99.5: between 50 and 51
+  EXPECT_DOUBLE_EQ(j.at("p90").get<double>(), 90.1);   // h = 179.1
+  EXPECT_DOUBLE_EQ(j.at("p99").get<double>(), 99.01);  // h = 197.01
+  EXPECT_EQ(j.at("percentiles"), "linear");
   EXPECT_DOUBLE_EQ(j.at("max").get<double>(), 100.0);
   EXPECT_DOUBLE_EQ(j.at("mean").get<double>(), 50.5);
   EXPECT_TRUE(std::filesystem::is_regular_file(dir.file("tp/timing_histogram.svg")));

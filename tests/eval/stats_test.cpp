@@ -36,28 +36,6 @@ TEST(EvalStats, StdHasNoCancellationForLargeOffsets) {
 
 TEST(EvalStats, EmptyInputIsAnError) { EXPECT_THROW(summarize({}), pl::Error); }
 
-TEST(EvalStats, NearestRankPercentiles) {
-  std::vector<double> v;
-  for (int i = 1; i <= 10; ++i) v.push_back(i);
-  EXPECT_DOUBLE_EQ(percentile_nearest_rank(v, 0), 1.0);
-  EXPECT_DOUBLE_EQ(percentile_nearest_rank(v, 50), 5.0);
-  EXPECT_DOUBLE_EQ(percentile_nearest_rank(v, 90), 9.0);  // 0.9 * 10 must not round up to rank 10
-  EXPECT_DOUBLE_EQ(percentile_nearest_rank(v, 91), 10.0);
-  EXPECT_DOUBLE_EQ(percentile_nearest_rank(v, 99), 10.0);
-  EXPECT_DOUBLE_EQ(percentile_nearest_rank(v, 100), 10.0);
-
-  const std::vector<double> w = {15, 20, 35, 40, 50};
-  EXPECT_DOUBLE_EQ(percentile_nearest_rank(w, 5), 15.0);
-  EXPECT_DOUBLE_EQ(percentile_nearest_rank(w, 30), 20.0);
-  EXPECT_DOUBLE_EQ(percentile_nearest_rank(w, 40), 20.0);
-  EXPECT_DOUBLE_EQ(percentile_nearest_rank(w, 50), 35.0);
-  EXPECT_DOUBLE_EQ(percentile_nearest_rank(w, 100), 50.0);
-
-  EXPECT_THROW(percentile_nearest_rank(w, 101), pl::Error);
-  EXPECT_THROW(percentile_nearest_rank(w, -1), pl::Error);
-  EXPECT_THROW(percentile_nearest_rank({}, 50), pl::Error);
-}
-
 TEST(EvalStats, HistogramCountsAndEdges) {
   const Histogram h = make_histogram({0.0, 1.0, 2.0, 3.0, 4.0, 0.5}, 4);
   ASSERT_EQ(h.counts.size(), 4u);

@@ -96,19 +96,21 @@ TEST(EvalTiming, StatsOnOneToHundred) {
   const TimingStats s = timing_stats(v);
   EXPECT_EQ(s.count, 100u);
   EXPECT_DOUBLE_EQ(s.mean, 50.5);
-  EXPECT_DOUBLE_EQ(s.p50, 50.0);
-  EXPECT_DOUBLE_EQ(s.p90, 90.0);
-  EXPECT_DOUBLE_EQ(s.p99, 99.0);
+  // Interpolated between the closest ranks (pl/common/stats.hpp): h = 99p/100 on 1..100.
+  EXPECT_DOUBLE_EQ(s.p50, 50.5);   // h = 49.5: between 50 and 51
+  EXPECT_DOUBLE_EQ(s.p90, 90.1);   // h = 89.1
+  EXPECT_DOUBLE_EQ(s.p99, 99.01);  // h = 98.01
   EXPECT_DOUBLE_EQ(s.max, 100.0);
   EXPECT_DOUBLE_EQ(s.min, 1.0);
 }
 
 TEST(EvalTiming, StatsOnAShortList) {
-  // Nearest rank on 7 values: p50 -> rank 4, p90 -> rank 7 (6.3 rounds up), p99 -> rank 7.
+  // 10 20 ... 70: h = 6p/100. p50 -> h = 3, the 4th value; p90 -> h = 5.4, 60 + 0.4 * 10;
+  // p99 -> h = 5.94, 60 + 0.94 * 10.
   const TimingStats s = timing_stats({30, 10, 70, 20, 60, 40, 50});
   EXPECT_DOUBLE_EQ(s.p50, 40.0);
-  EXPECT_DOUBLE_EQ(s.p90, 70.0);
-  EXPECT_DOUBLE_EQ(s.p99, 70.0);
+  EXPECT_DOUBLE_EQ(s.p90, 64.0);
+  EXPECT_DOUBLE_EQ(s.p99, 69.4);
   EXPECT_DOUBLE_EQ(s.mean, 40.0);
 }
 

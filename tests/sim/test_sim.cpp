@@ -6,6 +6,7 @@
 
 #include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
+#include "pl/common/stats.hpp"
 #include "pl/sim/lidar.hpp"
 #include "pl/sim/sensors.hpp"
 #include "pl/sim/simulate.hpp"
@@ -78,10 +79,7 @@ TEST(SimLidar, ScanGeometryNoiseAndRings) {
   for (std::size_t i = 0; i < scan.size(); ++i)
     el[rings[i]].push_back(std::atan2(scan[i].z, std::hypot(scan[i].x, scan[i].y)) * 180.0 / M_PI);
   EXPECT_EQ(el.size(), 64u);
-  for (auto& [r, v] : el) {
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    EXPECT_NEAR(v[v.size() / 2], h.vertical_deg[r], 0.05) << r;
-  }
+  for (const auto& [r, v] : el) EXPECT_NEAR(pl::median(v), h.vertical_deg[r], 0.05) << r;
 }
 
 TEST(SimLidar, HalfFieldOfViewBlocksTheRear) {

@@ -101,7 +101,7 @@ int body(int argc, char** argv) {
               r.frames / std::max(r.seconds, 1e-9), r.threads);
   std::printf("  route %.0f m over %.1f s; world: %zu objects (%zu movable), epoch %d, %s\n", r.length_m, r.duration_s,
               r.objects, r.movable, o.world.epoch, o.world.preset.c_str());
-  std::printf("  points a scan: min %zu, median %zu, max %zu (%s, %.0f deg)\n", r.points_min, r.points_median, r.points_max,
+  std::printf("  points a scan: min %zu, median %.0f, max %zu (%s, %.0f deg)\n", r.points_min, r.points_median, r.points_max,
               o.lidar.c_str(), o.fov_deg);
   std::printf("  encoder: %zu samples at 100 Hz; gps: %zu fixes (%s)\n", r.encoder_samples, r.gps_fixes, r.gps_mix.c_str());
   if (o.traffic.count) std::printf("  traffic: %d agents\n", o.traffic.count);

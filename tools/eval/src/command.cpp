@@ -52,7 +52,7 @@ const char* const kMapUsage =
     "  reference points within 2.5 spacings of the nearest one, when they are planar and the nearest\n"
     "  is within 2 spacings; else to the nearest point) or, --metric point, to the nearest reference\n"
     "  point (exact; a reference sampled every s m inflates it by up to ~s/sqrt(2)); the share within\n"
-    "  --within and within 0.02, 0.05, 0.10, 0.20 m; mean, median, p90, p95, p99 (nearest-rank), max;\n"
+    "  --within and within 0.02, 0.05, 0.10, 0.20 m; mean, median, p90, p95, p99, max;\n"
     "  the reference's point spacing; and the reference coverage: the share of reference points with\n"
     "  a map point within --coverage-radius. Clouds: .pcd, .ply or KITTI .bin; two PCDs that record\n"
     "  different geodetic origins are an error.\n";
@@ -68,7 +68,8 @@ const char* const kTopviewUsage =
 
 const char* const kTimingUsage =
     "pl-eval timing --csv FILE [--column NAME] [--json] [--plot DIR]\n"
-    "  Per-scan time distribution (count, min, mean, p50, p90, p99, max; nearest-rank percentiles)\n"
+    "  Per-scan time distribution (count, min, mean, p50, p90, p99, max; percentiles interpolated\n"
+    "  linearly between the closest ranks, as numpy does)\n"
     "  and a text histogram of one CSV column. Default column: registration_ms, else the only\n"
     "  column ending in _ms.\n"
     "  --plot DIR   write timing_histogram.svg\n";

@@ -9,6 +9,7 @@
 #include "pl/common/error.hpp"
 #include "pl/common/geo.hpp"
 #include "pl/common/progress.hpp"
+#include "pl/common/stats.hpp"
 #include "pl/eval/nearest.hpp"
 
 namespace pl::eval {
@@ -97,11 +98,11 @@ MapAccuracy compute_map_accuracy(const Points3d& map, const Points3d& reference,
     bar.finish();
   }
   r.distance = summarize(r.distances);
-  std::vector<double> sorted = r.distances;
+  std::vector<double> sorted = r.distances;  // for the shares within each threshold
   std::sort(sorted.begin(), sorted.end());
-  r.p90 = percentile_nearest_rank(sorted, 90.0);
-  r.p95 = percentile_nearest_rank(sorted, 95.0);
-  r.p99 = percentile_nearest_rank(sorted, 99.0);
+  r.p90 = percentile(r.distances, 90.0);
+  r.p95 = percentile(r.distances, 95.0);
+  r.p99 = percentile(r.distances, 99.0);
 
   std::vector<double> thresholds = {0.02, 0.05, 0.10, 0.20, options.within};
   std::sort(thresholds.begin(), thresholds.end());

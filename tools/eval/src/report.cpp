@@ -146,7 +146,7 @@ nlohmann::ordered_json timing_json(const TimingColumn& c, const TimingStats& s, 
   j["p90"] = s.p90;
   j["p99"] = s.p99;
   j["max"] = s.max;
-  j["percentiles"] = "nearest-rank";
+  j["percentiles"] = "linear";  // interpolated between the closest ranks (pl/common/stats.hpp)
   nlohmann::ordered_json edges = nlohmann::ordered_json::array();
   for (std::size_t i = 0; i <= h.counts.size(); ++i) edges.push_back(i == h.counts.size() ? h.hi : h.edge(i));
   j["histogram"] = {{"edges", edges}, {"counts", h.counts}};
@@ -155,7 +155,7 @@ nlohmann::ordered_json timing_json(const TimingColumn& c, const TimingStats& s, 
 
 std::string timing_text(const TimingColumn& c, const TimingStats& s, const Histogram& h, const std::string& path) {
   std::string o;
-  o += "Per-scan time, column " + c.name + " of " + path + " (ms; percentiles are nearest-rank)\n";
+  o += "Per-scan time, column " + c.name + " of " + path + " (ms; percentiles interpolated between ranks)\n";
   o += line("  %8s %10s %10s %10s %10s %10s %10s", "count", "min", "mean", "p50", "p90", "p99", "max");
   o += line("  %8zu %10.3f %10.3f %10.3f %10.3f %10.3f %10.3f", s.count, s.min, s.mean, s.p50, s.p90, s.p99, s.max);
   o += "\n";

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "pl/common/error.hpp"
+#include "pl/common/stats.hpp"
 
 namespace pl::eval {
 
@@ -25,24 +26,11 @@ Summary summarize(const std::vector<double>& values) {
   for (double v : values) dev_sq += (v - s.mean) * (v - s.mean);
   s.std = std::sqrt(dev_sq / n);
 
-  std::vector<double> sorted = values;
-  std::sort(sorted.begin(), sorted.end());
-  const std::size_t mid = sorted.size() / 2;
-  s.median = sorted.size() % 2 == 1 ? sorted[mid] : 0.5 * (sorted[mid - 1] + sorted[mid]);
-  s.min = sorted.front();
-  s.max = sorted.back();
+  s.median = median(values);
+  auto [mn, mx] = std::minmax_element(values.begin(), values.end());
+  s.min = *mn;
+  s.max = *mx;
   return s;
-}
-
-double percentile_nearest_rank(const std::vector<double>& sorted, double p) {
-  if (sorted.empty()) throw Error("no values for a percentile");
-  if (!(p >= 0.0 && p <= 100.0)) throw Error("percentile " + std::to_string(p) + " is outside [0, 100]");
-  const double n = static_cast<double>(sorted.size());
-  // Rank ceil(p/100 * n); the small slack keeps e.g. 0.9 * 10 = 9.000000000000002 at rank 9.
-  double rank = std::ceil(p / 100.0 * n - 1e-9);
-  std::size_t r = rank < 1.0 ? 1 : static_cast<std::size_t>(rank);
-  if (r > sorted.size()) r = sorted.size();
-  return sorted[r - 1];
 }
 
 Histogram make_histogram(const std::vector<double>& values, std::size_t bins) {

@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "pl/common/error.hpp"
+#include "pl/common/stats.hpp"
 #include "pl/common/text.hpp"
 
 namespace pl::eval {
@@ -85,15 +86,13 @@ TimingColumn read_timing_csv(const std::string& path, const std::optional<std::s
 
 TimingStats timing_stats(const std::vector<double>& values) {
   const Summary s = summarize(values);
-  std::vector<double> sorted = values;
-  std::sort(sorted.begin(), sorted.end());
   TimingStats t;
   t.count = s.count;
   t.min = s.min;
   t.mean = s.mean;
-  t.p50 = percentile_nearest_rank(sorted, 50);
-  t.p90 = percentile_nearest_rank(sorted, 90);
-  t.p99 = percentile_nearest_rank(sorted, 99);
+  t.p50 = percentile(values, 50);
+  t.p90 = percentile(values, 90);
+  t.p99 = percentile(values, 99);
   t.max = s.max;
   return t;
 }

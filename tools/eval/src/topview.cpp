@@ -1,7 +1,5 @@
 #include "pl/eval/topview.hpp"
 
-#include "pl/eval/stats.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -9,6 +7,7 @@
 #include <unordered_map>
 
 #include "pl/common/error.hpp"
+#include "pl/common/stats.hpp"
 #include "pl/common/svg.hpp"
 
 namespace pl::eval {
@@ -36,12 +35,6 @@ CellMap bin_cells(const Points3d& points, double cell) {
     c.z_max = std::max(c.z_max, p.z());
   }
   return cells;
-}
-
-// The nearest-rank percentile (stats.hpp) of unsorted values, p in [0, 1].
-double value_at_rank(std::vector<double> v, double p) {
-  std::sort(v.begin(), v.end());
-  return percentile_nearest_rank(v, 100.0 * p);
 }
 
 std::string metres(double v) {
@@ -107,15 +100,15 @@ TopviewResult write_topview(const Points3d& cloud, const std::vector<TopviewTrac
     if (options.shade == TopviewShade::Count) {
       // Log scale from one point to the 95th percentile of points per cell.
       r.shade_lo = 1.0;
-      r.shade_hi = std::max(1.0, value_at_rank(values, 0.95));
+      r.shade_hi = std::max(1.0, percentile(values, 95));
       const double span = std::log(r.shade_hi);
       for (double v : values) shade.push_back(span > 0.0 ? std::log(v) / span : 0.5);
       key = "map, " + metres(cell) + " m cells: darker = more points (1 to " +
             std::to_string(static_cast<long long>(r.shade_hi)) + "+, log)";
     } else {
       // Linear in the highest point of each cell, between its 2nd and 98th percentiles.
-      r.shade_lo = value_at_rank(values, 0.02);
-      r.shade_hi = value_at_rank(values, 0.98);
+      r.shade_lo = percentile(values, 2);
+      r.shade_hi = percentile(values, 98);
       const double span = r.shade_hi - r.shade_lo;
       for (double v : values) shade.push_back(span > 0.0 ? (v - r.shade_lo) / span : 0.5);
       key = "map, " + metres(cell) + " m cells: darker = higher (z " + metres(r.shade_lo) + " to " +

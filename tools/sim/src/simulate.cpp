@@ -14,6 +14,7 @@
 #include "pl/common/meta.hpp"
 #include "pl/common/cloud_io.hpp"
 #include "pl/common/progress.hpp"
+#include "pl/common/stats.hpp"
 #include "pl/common/text.hpp"
 #include "pl/sim/lidar.hpp"
 #include "pl/sim/output.hpp"
@@ -174,11 +175,10 @@ SimReport simulate(const SimOptions& o) {
   r.frames = n;
   r.objects = world.objects.size();
   for (const auto& obj : world.objects) r.movable += is_movable(obj.cls);
-  std::vector<std::size_t> sorted = counts;
-  std::sort(sorted.begin(), sorted.end());
-  r.points_min = sorted.front();
-  r.points_median = sorted[sorted.size() / 2];
-  r.points_max = sorted.back();
+  auto [fewest, most] = std::minmax_element(counts.begin(), counts.end());
+  r.points_min = *fewest;
+  r.points_median = median(std::vector<double>(counts.begin(), counts.end()));
+  r.points_max = *most;
   r.encoder_samples = encoder.size();
   r.gps_fixes = gps.size();
   for (const auto& [name, count] : mix) {

@@ -40,7 +40,7 @@ struct MapAccuracy {
   // 0.02, 0.05, 0.10, 0.20 m and `within`, ascending, without repeats.
   std::vector<ShareWithin> shares;
   Summary distance;  // of the map-to-reference distances (median: the mean of the two middle values)
-  double p90 = 0.0, p95 = 0.0, p99 = 0.0;  // nearest-rank
+  double p90 = 0.0, p95 = 0.0, p99 = 0.0;  // pl::percentile (linear between the closest ranks)
   // The median distance from a reference point to its nearest other reference point, over an even
   // sample: distances well below half of it are not resolved by a point-to-point comparison.
   double reference_spacing = 0.0;

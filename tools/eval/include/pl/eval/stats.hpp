@@ -1,4 +1,6 @@
-// Summary statistics of a list of values (errors, timings) and fixed-width histograms.
+// Summary statistics of a list of values (errors, timings) and fixed-width histograms. Medians and
+// percentiles are pl::median and pl::percentile (pl/common/stats.hpp: linear interpolation between
+// the closest ranks).
 #pragma once
 
 #include <cstddef>
@@ -9,7 +11,7 @@ namespace pl::eval {
 struct Summary {
   std::size_t count = 0;
   double mean = 0.0;
-  double median = 0.0;  // middle value; the mean of the two middle values when count is even
+  double median = 0.0;  // pl::median: the middle value; the mean of the two middle values when count is even
   double rmse = 0.0;    // sqrt(mean of squares)
   double std = 0.0;     // population standard deviation: sqrt(mean of (v - mean)^2)
   double min = 0.0;
@@ -18,11 +20,6 @@ struct Summary {
 
 // Throws pl::Error when `values` is empty.
 Summary summarize(const std::vector<double>& values);
-
-// Nearest-rank percentile of ascending `sorted` values: the value of rank ceil(p/100 * n) (1-based),
-// rank 1 for p = 0. It is always one of the values (no interpolation), so p50 of {1,2,3,4} is 2.
-// Throws pl::Error when `sorted` is empty or p is outside [0, 100].
-double percentile_nearest_rank(const std::vector<double>& sorted, double p);
 
 // `bins` equal-width bins over [lo, hi]; a value equal to hi goes into the last bin.
 struct Histogram {

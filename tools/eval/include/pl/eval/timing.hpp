@@ -25,7 +25,7 @@ struct TimingStats {
   std::size_t count = 0;
   double min = 0.0;
   double mean = 0.0;
-  double p50 = 0.0;  // percentiles are nearest-rank, see percentile_nearest_rank
+  double p50 = 0.0;  // percentiles are pl::percentile (linear between the closest ranks)
   double p90 = 0.0;
   double p99 = 0.0;
   double max = 0.0;

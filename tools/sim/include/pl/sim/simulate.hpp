@@ -33,7 +33,8 @@ struct SimOptions {
 
 struct SimReport {
   std::size_t frames = 0, objects = 0, movable = 0;
-  std::size_t points_min = 0, points_median = 0, points_max = 0;
+  std::size_t points_min = 0, points_max = 0;
+  double points_median = 0;  // pl::median of the scans' point counts
   std::size_t encoder_samples = 0, gps_fixes = 0, map_points = 0;
   std::string gps_mix;
   double length_m = 0, duration_s = 0, seconds = 0;
