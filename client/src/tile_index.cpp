@@ -1,0 +1,36 @@
+#include "tile_index.hpp"
+
+#include <set>
+#include <utility>
+
+namespace pl::client {
+
+const CachedTile* TileIndex::find(const TileKey& key) const {
+  auto it = rows_.find(key);
+  return it == rows_.end() ? nullptr : &it->second;
+}
+
+void TileIndex::learn(CachedTile row) {
+  if (row.exists()) {
+    auto [it, inserted] = key_of_hash_.emplace(row.hash, row.key);
+    if (!inserted && it->second != row.key) have_usable_ = false;
+  }
+  TileKey key = row.key;
+  rows_[key] = std::move(row);
+}
+
+void TileIndex::clear() {
+  rows_.clear();
+  key_of_hash_.clear();
+  have_usable_ = true;
+}
+
+std::vector<CachedTile> rows_of_answer(std::vector<CachedTile> listed, const std::vector<TileKey>& keys, const TileIndex& index) {
+  std::set<TileKey> answered;
+  for (const auto& r : listed) answered.insert(r.key);
+  for (const TileKey& k : keys)
+    if (!answered.count(k) && !index.knows(k)) listed.push_back(CachedTile{k, {}, 0});
+  return listed;
+}
+
+}  // namespace pl::client

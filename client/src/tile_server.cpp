@@ -1,0 +1,100 @@
+#include "tile_server.hpp"
+
+#include <exception>
+#include <utility>
+
+#include "client_text.hpp"
+#include "pl/common/error.hpp"
+#include "wire.hpp"
+
+namespace pl::client {
+
+TileServer::TileServer(const TileClientConfig& cfg, ClientStatus& status)
+    : cfg_(cfg), status_(status), http_(cfg.server, cfg.timeout_s), backoff_(cfg.retry_min_s, cfg.retry_max_s) {
+  if (!cfg_.token.empty()) headers_["Authorization"] = "Bearer " + cfg_.token;
+}
+
+[[noreturn]] void TileServer::failed(const std::string& message) {
+  double wait = backoff_.failed();
+  status_.request_failed(message + " (retrying in " + seconds(wait) + ")");
+  throw RequestFailed{};
+}
+
+void TileServer::succeeded() {
+  backoff_.succeeded();
+  status_.request_succeeded();
+}
+
+// GET on the kept-alive connection; returns 200 answers, counts and throws on anything else.
+// `about` says what was asked ("the manifest of map town"); `hint_404` what a 404 means to fix.
+api::HttpResponse TileServer::get(const std::string& target, const std::string& about, const std::string& hint_404) {
+  if (backoff_.backing_off()) status_.request_retried();
+  api::HttpResponse res;
+  try {
+    res = http_.get(target, headers_);
+  } catch (const std::exception& e) {
+    last_status_ = 0;
+    failed("cannot reach pl-server for " + about + " (" + e.what() +
+           "): is it running and reachable? Serving the tiles in memory and in the disk cache meanwhile");
+  }
+  last_status_ = res.status;
+  if (res.status == 200) {
+    succeeded();
+    return res;
+  }
+  const std::string said = wire::error_text(res.body);
+  std::string what = about + ": " + cfg_.server + " answered HTTP " + std::to_string(res.status) + (said.empty() ? "" : " \"" + said + "\"");
+  if (res.status == 401) what += ": set TileClientConfig::token to a token with the read role";
+  if (res.status == 403) what += ": the token needs the read role";
+  if (res.status == 404 && !hint_404.empty()) what += ": " + hint_404;
+  if (res.status >= 500) what += ": the server is failing or shutting down";
+  failed(what);
+}
+
+std::string TileServer::pinned_hint(long long version) const {
+  return "is version " + std::to_string(version) + " of map " + cfg_.map + " published on this server? Pin one that is";
+}
+
+CachedManifest TileServer::manifest(std::optional<long long> pin) {
+  std::string about = "the manifest of map " + cfg_.map;
+  api::HttpResponse res = get("/v1/maps/" + api::url_encode(cfg_.map), about, "check TileClientConfig::map");
+  try {
+    return wire::parse_manifest(res.body, cfg_.map, pin);
+  } catch (const wire::WireError& e) {
+    failed(about + ": " + e.what() + " (see the manifest in schema/openapi.yaml)");
+  }
+}
+
+std::vector<CachedTile> TileServer::roi(const RoiQuery& q, long long version, double tile_size) {
+  std::string about = "the tiles of map " + cfg_.map + " version " + std::to_string(version) + " around (" + number(q.disc.center.x()) +
+                      ", " + number(q.disc.center.y()) + ")";
+  std::string target = "/v1/maps/" + api::url_encode(cfg_.map) + "/roi?x=" + number(q.disc.center.x()) + "&y=" + number(q.disc.center.y()) +
+                       "&radius=" + number(q.disc.radius) + "&version=" + std::to_string(version);
+  if (!q.have.empty()) {
+    target += "&have=";
+    for (std::size_t i = 0; i < q.have.size(); ++i) target += (i ? "," : "") + q.have[i];
+  }
+  api::HttpResponse res = get(target, about, pinned_hint(version));
+  try {
+    return wire::parse_roi(res.body, version, tile_size);
+  } catch (const wire::WireError& e) {
+    failed(about + ": " + e.what() + " (see the ROI answer in schema/openapi.yaml)");
+  }
+}
+
+TileServer::Blob TileServer::blob(const CachedTile& t, long long version) {
+  std::string about = "tile " + key_name(t.key) + " (" + t.hash + ")";
+  api::HttpResponse res = get("/v1/blobs/" + t.hash, about, "the key rows cached for map " + cfg_.map + " version " + std::to_string(version) +
+                                                           " are stale (was the map store rebuilt?); asking the server again");
+  // The bytes are checked against the hash before anything else looks at them, then decoded.
+  try {
+    TileCloud cloud = wire::verified_tile(res.body, t.hash);
+    return Blob{std::move(res.body), std::move(cloud)};
+  } catch (const wire::WireError& e) {
+    failed(about + ": " + e.what());
+  } catch (const Error& e) {
+    throw UndecodableTile(e.what());
+  }
+}
+
+}  // namespace pl::client

@@ -1,0 +1,73 @@
+// The tile client's conversation with pl-server (schema/openapi.yaml): one kept-alive HTTP/1.1
+// connection (HttpClient) with the read token, the manifest, ROI and blob requests, every answer
+// checked by wire:: before it is used, and the backoff after failures. A failed request is counted
+// and described in the ClientStatus (saying what to do and when the retry is), starts the backoff
+// and throws RequestFailed. Used by the background thread only. Private to pl_client.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "backoff.hpp"
+#include "client_status.hpp"
+#include "fetch_plan.hpp"
+#include "pl/schema/http_client.hpp"
+#include "pl/client/tile_cache.hpp"
+#include "pl/client/tile_client.hpp"
+#include "pl/common/tile_codec.hpp"
+
+namespace pl::client {
+
+// A failed request, already counted and described in the status: unwinds to the client's loop.
+struct RequestFailed {};
+
+// Tile bytes that match their hash but do not decode (a tile the store holds broken): not a failed
+// request. what() is the decoder's message.
+struct UndecodableTile : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class TileServer {
+ public:
+  // Throws pl::Error for a malformed server URL. Keeps references to cfg and status.
+  TileServer(const TileClientConfig& cfg, ClientStatus& status);
+
+  // Whether a request may go now (no backoff running), and when the running backoff ends.
+  bool may_ask() const { return backoff_.allowed(); }
+  Backoff::Clock::time_point retry_at() const { return backoff_.until(); }
+  // The HTTP status of the last answered request (0: none answered).
+  int last_status() const { return last_status_; }
+
+  // GET /v1/maps/{map}: the manifest of `pin` (else of the map's current version).
+  CachedManifest manifest(std::optional<long long> pin);
+  // GET /v1/maps/{map}/roi: the tiles the server lists for the query's disc in `version`.
+  std::vector<CachedTile> roi(const RoiQuery& q, long long version, double tile_size);
+
+  struct Blob {
+    std::string bytes;  // the Draco bytes, matching the hash
+    TileCloud cloud;    // decoded
+  };
+  // GET /v1/blobs/{hash} for the tile `t` of `version`: its bytes checked against the hash, then
+  // decoded. Throws RequestFailed for bytes that do not match, UndecodableTile for bytes that match
+  // but do not decode.
+  Blob blob(const CachedTile& t, long long version);
+
+ private:
+  api::HttpResponse get(const std::string& target, const std::string& about, const std::string& hint_404);
+  [[noreturn]] void failed(const std::string& message);
+  void succeeded();
+  std::string pinned_hint(long long version) const;
+
+  const TileClientConfig& cfg_;
+  ClientStatus& status_;
+  api::HttpClient http_;
+  std::map<std::string, std::string> headers_;
+  Backoff backoff_;
+  int last_status_ = 0;
+};
+
+}  // namespace pl::client
