@@ -9,7 +9,7 @@ scan=""
 if [[ -n "$data" ]]; then scan="$data/kitti-raw-2011_09_26_drive_0005_sync/velodyne_points/data/0000000000.bin"; fi
 
 echo "== bench_voxel: voxel grid vs pcl::VoxelGrid"
-"$bin/bench_voxel" $scan
+if [[ -x "$bin/bench_voxel" ]]; then "$bin/bench_voxel" $scan; else echo "skipped: built without PCL (install libpcl-dev)"; fi
 
 echo
 echo "== bench_sim: simulated scans per second, one core"
