@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # PointLocalization: set-up, build, demo, tests and benchmarks in one command.
 #   ./pl demo    install what is missing, build Release, run the main job and print its result
-#   ./pl test    install what is missing, build Debug with ASan+UBSan, run every test, fuzz each target 30 s
+#   ./pl test    install what is missing, build Debug with ASan+UBSan, run every test, the threaded
+#                ones again under ThreadSanitizer, fuzz each target 30 s
 #   ./pl bench   install what is missing, build Release, run every benchmark in bench/
 #   ./pl build   install what is missing and build Release only
 #   ./pl fuzz [TARGET...] [--seconds N]   build the libFuzzer targets (clang) and run each N s (60)
@@ -63,16 +64,33 @@ cmd_demo() {
 
 cmd_test() {
   ensure_packages
-  build build/asan -DCMAKE_BUILD_TYPE=Debug -DPL_SANITIZE=ON
+  build build/asan -DCMAKE_BUILD_TYPE=Debug -DPL_SANITIZE=ON -DPL_BUILD_BENCH=OFF
   say "running the tests"
   # Leak checking stays on; UBSan reports fail the test (-fno-sanitize-recover at build time).
   export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}
   export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}
   export PL_NO_PROGRESS=1
   ctest --test-dir build/asan --output-on-failure -j "$JOBS"
+  test_tsan
   say "fuzzing every input parser for 30 s each"
   build_fuzz
   bash tests/fuzz/run.sh build/fuzz/bin 30
+}
+
+# The threaded parts under ThreadSanitizer: the tile client (its fetch thread against a real
+# pl-server), the vehicle localizer (input, worker and reader threads) and the server (its
+# io_context threads, in the pl-server processes the tests start). A report fails the test.
+test_tsan() {
+  local dir=build/tsan
+  if [[ ! -f "$dir/build.ninja" ]]; then
+    say "configuring $dir"
+    cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DPL_TSAN=ON -DPL_BUILD_BENCH=OFF >/dev/null
+  fi
+  say "building the threaded tests in $dir (ThreadSanitizer)"
+  cmake --build "$dir" -j "$JOBS" --target test_client test_vehicle_localizer test_server pl-server pl-map
+  say "running them under ThreadSanitizer"
+  TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:exitcode=66:second_deadlock_stack=1} \
+    ctest --test-dir "$dir" --output-on-failure -j "$JOBS" -R '^(TileClient|TileCache|VehicleLocalizer|Server)\.'
 }
 
 build_fuzz() {

@@ -45,8 +45,9 @@ ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOption
   feed.until(loc, t0 + kAhead);
   if (o.start) o.start(loc);
   if (o.timing)
-    std::fprintf(o.timing, "scan,t,registration_ms,prepare_ms,map_ms,total_ms,points,iterations,pairs,inlier_share,rms_m,"
-                           "conditioning,correction_m,position_sigma_m,status,fused,note\n");
+    std::fprintf(o.timing,
+                 "scan,t,registration_ms,prepare_ms,map_ms,total_ms,points,iterations,pairs,inlier_share,rms_m,"
+                 "conditioning,correction_m,position_sigma_m,status,fused,note\n");
   const bool odometry = o.odometry != OdometrySource::None;
   // The output at the odometry rate: sample `out_next` is the next one not yet written.
   std::size_t out_next = 0;

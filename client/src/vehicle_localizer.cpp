@@ -67,7 +67,9 @@ struct VehicleLocalizer::Impl {
   double last_scan_t = 0;
   std::thread worker;
 
-  std::vector<MapTile> tiles_near(const Eigen::Vector2d& c, double r) { return store ? store->near(c, r) : client->tiles_near(c, r); }
+  std::vector<MapTile> tiles_near(const Eigen::Vector2d& c, double r) {
+    return store ? store->near(c, r) : client->tiles_near(c, r);
+  }
 
   Eigen::Isometry3d to_lidar(const Eigen::Isometry3d& base) const { return base * cfg.base_from_lidar; }
   Eigen::Isometry3d to_base(const Eigen::Isometry3d& lidar) const { return lidar * cfg.base_from_lidar.inverse(); }
@@ -171,7 +173,8 @@ struct VehicleLocalizer::Impl {
     if (!job.times.empty()) deskew(job);
     lk.unlock();
     const Eigen::Vector2d xy = predicted.translation().head<2>();
-    const Eigen::Vector2d velocity = t > last_scan_t ? Eigen::Vector2d((xy - last_xy) / (t - last_scan_t)) : Eigen::Vector2d::Zero();
+    const Eigen::Vector2d velocity =
+        t > last_scan_t ? Eigen::Vector2d((xy - last_xy) / (t - last_scan_t)) : Eigen::Vector2d::Zero();
     if (client) client->set_focus(xy, xy + cfg.lookahead_s * velocity);
     const double t0 = now_ms();
     const Scan prepared = prepare_scan(job.points, job.rings, cfg.localizer.scan);
@@ -240,7 +243,8 @@ VehicleLocalizer::VehicleLocalizer(const VehicleLocalizerConfig& cfg) : impl_(st
   }
   if (cfg.wheel_base_m > 0) m.drive.emplace(cfg.wheel_base_m);
   Impl* raw = impl_.get();
-  m.loc = std::make_unique<Localizer>(cfg.localizer, m.tile_size, [raw](const Eigen::Vector2d& c, double r) { return raw->tiles_near(c, r); });
+  m.loc = std::make_unique<Localizer>(cfg.localizer, m.tile_size,
+                                      [raw](const Eigen::Vector2d& c, double r) { return raw->tiles_near(c, r); });
   m.worker = std::thread([raw] { raw->run(); });
 }
 
@@ -254,7 +258,8 @@ VehicleLocalizer::~VehicleLocalizer() {
 }
 
 void VehicleLocalizer::start(const Eigen::Isometry3d& base_in_map, double t) {
-  if (!base_in_map.matrix().allFinite() || !std::isfinite(t)) throw Error("VehicleLocalizer::start: the pose and time must be finite");
+  if (!base_in_map.matrix().allFinite() || !std::isfinite(t))
+    throw Error("VehicleLocalizer::start: the pose and time must be finite");
   std::lock_guard<std::mutex> lk(impl_->m);
   impl_->request = StartRequest::At;
   impl_->request_pose = impl_->to_lidar(base_in_map);
@@ -263,7 +268,8 @@ void VehicleLocalizer::start(const Eigen::Isometry3d& base_in_map, double t) {
 }
 
 void VehicleLocalizer::start_near(const Eigen::Isometry3d& rough_base_in_map, double t) {
-  if (!rough_base_in_map.matrix().allFinite() || !std::isfinite(t)) throw Error("VehicleLocalizer::start_near: the pose and time must be finite");
+  if (!rough_base_in_map.matrix().allFinite() || !std::isfinite(t))
+    throw Error("VehicleLocalizer::start_near: the pose and time must be finite");
   std::lock_guard<std::mutex> lk(impl_->m);
   impl_->started = false;
   impl_->request = StartRequest::Near;
@@ -310,12 +316,15 @@ void VehicleLocalizer::add_wheel_ticks(double t, std::int64_t left, std::int64_t
   add_wheel_travel(t, k * static_cast<double>(left), k * static_cast<double>(right));
 }
 
-void VehicleLocalizer::add_scan(double t, const Scan& points, const std::vector<std::uint16_t>& rings, const std::vector<float>& point_times) {
+void VehicleLocalizer::add_scan(double t, const Scan& points, const std::vector<std::uint16_t>& rings,
+                                const std::vector<float>& point_times) {
   if (!std::isfinite(t)) throw Error("VehicleLocalizer::add_scan: the time is not finite");
   if (!rings.empty() && rings.size() != points.size())
-    throw Error("VehicleLocalizer::add_scan: " + std::to_string(rings.size()) + " rings for " + std::to_string(points.size()) + " points");
+    throw Error("VehicleLocalizer::add_scan: " + std::to_string(rings.size()) + " rings for " + std::to_string(points.size()) +
+                " points");
   if (!point_times.empty() && point_times.size() != points.size())
-    throw Error("VehicleLocalizer::add_scan: " + std::to_string(point_times.size()) + " point times for " + std::to_string(points.size()) + " points");
+    throw Error("VehicleLocalizer::add_scan: " + std::to_string(point_times.size()) + " point times for " +
+                std::to_string(points.size()) + " points");
   std::lock_guard<std::mutex> lk(impl_->m);
   impl_->pending = ScanJob{t, points, rings, point_times};  // replaces a scan still waiting
   impl_->cv.notify_all();
@@ -355,9 +364,8 @@ PoseEstimate VehicleLocalizer::pose_at(double t) const {
 
 bool VehicleLocalizer::wait_idle(double timeout_s) const {
   std::unique_lock<std::mutex> lk(impl_->m);
-  return impl_->cv.wait_for(lk, std::chrono::duration<double>(timeout_s), [&] {
-    return !impl_->pending && !impl_->busy && impl_->request != StartRequest::At;
-  });
+  return impl_->cv.wait_for(lk, std::chrono::duration<double>(timeout_s),
+                            [&] { return !impl_->pending && !impl_->busy && impl_->request != StartRequest::At; });
 }
 
 ScanReport VehicleLocalizer::last_report() const {

@@ -84,7 +84,7 @@ IcpResult register_scan(const PointMap& map, const std::vector<Eigen::Vector3f>&
   } else if (res.conditioning < cfg.min_conditioning) {
     res.reject_reason = "degenerate geometry";
   } else if (!res.converged && (last_step.head<3>().norm() > cfg.unsettled_factor * cfg.converged_m ||
-                                 last_step.tail<3>().norm() > cfg.unsettled_factor * cfg.converged_rad)) {
+                                last_step.tail<3>().norm() > cfg.unsettled_factor * cfg.converged_rad)) {
     res.reject_reason = "did not converge";
   } else {
     res.accepted = true;

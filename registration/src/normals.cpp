@@ -8,7 +8,8 @@
 
 namespace pl::registration {
 
-std::vector<Eigen::Vector3f> estimate_normals(const std::vector<Eigen::Vector3d>& points, double radius, std::vector<float>* planarity) {
+std::vector<Eigen::Vector3f> estimate_normals(const std::vector<Eigen::Vector3d>& points, double radius,
+                                              std::vector<float>* planarity) {
   if (!(radius > 0.0)) throw Error("the normal radius must be positive");
   const double inv = 1.0 / radius, r2 = radius * radius;
   // 64-bit voxel indices in double precision (not the 21-bit cell keys): a map may span far more
@@ -55,7 +56,8 @@ std::vector<Eigen::Vector3f> estimate_normals(const std::vector<Eigen::Vector3d>
   return normals;
 }
 
-void principal_axes(const Eigen::Vector3f* pts, int count, Eigen::Vector3d& c, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>& es) {
+void principal_axes(const Eigen::Vector3f* pts, int count, Eigen::Vector3d& c,
+                    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>& es) {
   c.setZero();
   for (int i = 0; i < count; ++i) c += pts[i].cast<double>();
   c /= static_cast<double>(count);

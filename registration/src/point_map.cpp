@@ -24,8 +24,10 @@ struct Run {
 
 struct PointMap::Cells : CellTable<Run> {};
 
-PointMap::PointMap(const Eigen::Vector3d& anchor, double cell_m) : cell_(cell_m), anchor_(anchor), cells_(std::make_unique<Cells>()) {
-  if (!(cell_m > 0) || !std::isfinite(cell_m)) throw Error("point map: the cell size must be positive, got " + std::to_string(cell_m));
+PointMap::PointMap(const Eigen::Vector3d& anchor, double cell_m)
+    : cell_(cell_m), anchor_(anchor), cells_(std::make_unique<Cells>()) {
+  if (!(cell_m > 0) || !std::isfinite(cell_m))
+    throw Error("point map: the cell size must be positive, got " + std::to_string(cell_m));
   if (!anchor.allFinite()) throw Error("point map: the anchor is not finite");
 }
 

@@ -36,7 +36,8 @@ bool search_pose(const PointMap& coarse, const PointMap& fine, const std::vector
         coarse_results.push_back({r.pose, r.inlier_share / (0.05 + r.rms_m)});
       }
     }
-  std::sort(coarse_results.begin(), coarse_results.end(), [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+  std::sort(coarse_results.begin(), coarse_results.end(),
+            [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
   bool found = false;
   double best = -1;
   for (std::size_t i = 0; i < coarse_results.size() && i < 5; ++i) {

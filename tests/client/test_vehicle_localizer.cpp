@@ -62,7 +62,8 @@ Eigen::Isometry3d base_at(double t) { return pl::make_pose(-20.0 + 5.0 * t, 0.5,
 
 pl::Scan scan_from(const Eigen::Isometry3d& lidar_in_map, unsigned seed) {
   pl::Scan out;
-  for (const auto& p : pl::test::scan_of(pl::test::street(), lidar_in_map, 0.5, 60.0, seed)) out.push_back({p.x(), p.y(), p.z(), 0.5f});
+  for (const auto& p : pl::test::scan_of(pl::test::street(), lidar_in_map, 0.5, 60.0, seed))
+    out.push_back({p.x(), p.y(), p.z(), 0.5f});
   return out;
 }
 

@@ -54,9 +54,9 @@ inline void sample_surfaces(const std::vector<Surface>& surfaces, double step, s
 
 // A LiDAR-like scan of the surfaces from `sensor` (map frame): points every `step` metres on the
 // surfaces within `range`, in the sensor frame, with 1 cm noise.
-inline std::vector<Eigen::Vector3f> scan_of(const std::vector<Surface>& surfaces, const Eigen::Isometry3d& sensor,
-                                     double step, double range, unsigned seed,
-                                     const Eigen::Vector3d& offset = Eigen::Vector3d::Zero()) {
+inline std::vector<Eigen::Vector3f> scan_of(const std::vector<Surface>& surfaces, const Eigen::Isometry3d& sensor, double step,
+                                            double range, unsigned seed,
+                                            const Eigen::Vector3d& offset = Eigen::Vector3d::Zero()) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, 0.01);
   std::uniform_real_distribution<double> jitter(0.0, 1.0);

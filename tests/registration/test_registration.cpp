@@ -129,8 +129,8 @@ TEST(PointMap, PartsEnterAndLeaveWithoutATrace) {
   map.add(20, right, nr);
   EXPECT_EQ(map.cells(), 2 * left_cells);
   EXPECT_EQ(map.points(), 800u);
-  EXPECT_THROW(map.add(10, left, nl), pl::Error);                                   // held already
-  EXPECT_THROW(map.add(30, left, std::vector<Eigen::Vector3f>(3)), pl::Error);      // sizes differ
+  EXPECT_THROW(map.add(10, left, nl), pl::Error);                               // held already
+  EXPECT_THROW(map.add(30, left, std::vector<Eigen::Vector3f>(3)), pl::Error);  // sizes differ
   EXPECT_TRUE(map.remove(10));
   EXPECT_FALSE(map.remove(10));
   EXPECT_EQ(map.cells(), left_cells);
@@ -236,9 +236,9 @@ TEST(Normals, EstimatedNormalsOfAWallAndTheGround) {
   std::vector<float> planarity;
   const auto n = reg::estimate_normals(pts, 0.3, &planarity);
   ASSERT_EQ(n.size(), pts.size());
-  EXPECT_NEAR(n[0].z(), 1.0f, 1e-5);         // ground, oriented up
+  EXPECT_NEAR(n[0].z(), 1.0f, 1e-5);            // ground, oriented up
   EXPECT_NEAR(std::abs(n[1].y()), 1.0f, 1e-5);  // wall
-  EXPECT_GT(n[1].y(), 0.0f);                  // horizontal normals point towards +x or +y
+  EXPECT_GT(n[1].y(), 0.0f);                    // horizontal normals point towards +x or +y
   EXPECT_GT(planarity[0], 0.9f);
   EXPECT_EQ(n.back(), Eigen::Vector3f::UnitZ());
   EXPECT_EQ(planarity.back(), 0.0f);
@@ -302,9 +302,8 @@ TEST(Icp, PairsFartherThanDeltaAreDropped) {
 
 TEST(Icp, DegenerateCorridorIsRejected) {
   // Ground and two endless parallel walls: nothing fixes the position along the corridor.
-  std::vector<Surface> corridor = {{{-60, -6, 0}, {120, 0, 0}, {0, 12, 0}},
-                                   {{-60, -6, 0}, {120, 0, 0}, {0, 0, 6}},
-                                   {{-60, 6, 0}, {120, 0, 0}, {0, 0, 6}}};
+  std::vector<Surface> corridor = {
+      {{-60, -6, 0}, {120, 0, 0}, {0, 12, 0}}, {{-60, -6, 0}, {120, 0, 0}, {0, 0, 6}}, {{-60, 6, 0}, {120, 0, 0}, {0, 0, 6}}};
   const auto map = map_of(corridor, 0.2);
   const Eigen::Isometry3d truth = pl::make_pose(0, 0, 1.8);
   const auto r = reg::register_scan(*map, scan_of(corridor, truth, 0.5, 40.0, 3), truth);

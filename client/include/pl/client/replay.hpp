@@ -20,9 +20,9 @@ enum class OdometrySource { None, Encoder, Poses };
 struct ReplayOptions {
   std::vector<std::size_t> scans;  // dataset indices to localize, in order (the first starts)
   OdometrySource odometry = OdometrySource::None;
-  bool rings = false;              // hand the rings over (needed when fewer beams are kept)
-  bool realtime = false;           // wait for each scan's time on the wall clock
-  std::FILE* timing = nullptr;     // per-scan CSV (header written here), optional
+  bool rings = false;           // hand the rings over (needed when fewer beams are kept)
+  bool realtime = false;        // wait for each scan's time on the wall clock
+  std::FILE* timing = nullptr;  // per-scan CSV (header written here), optional
   std::function<void(std::size_t done, std::size_t total)> progress;
   // Starts the localizer (start, start_near) once the odometry up to the first scan is given.
   std::function<void(VehicleLocalizer&)> start;

@@ -48,11 +48,11 @@ struct VehicleLocalizerConfig {
   Eigen::Isometry3d base_from_lidar = Eigen::Isometry3d::Identity();
   Eigen::Vector3d base_from_antenna = Eigen::Vector3d::Zero();  // the GPS antenna in the base frame
   // Odometry.
-  double wheel_base_m = 0;          // for wheel travel and ticks
-  double metres_per_tick = 1.0;     // for add_wheel_ticks
+  double wheel_base_m = 0;                   // for wheel travel and ticks
+  double metres_per_tick = 1.0;              // for add_wheel_ticks
   std::size_t max_odometry_samples = 20000;  // the buffer's bound (200 s at 100 Hz)
-  bool start_from_gps = false;      // start at the first scan that has a GPS fix within 0.5 s
-  registration::PoseSearch search;  // the search of start_near()
+  bool start_from_gps = false;               // start at the first scan that has a GPS fix within 0.5 s
+  registration::PoseSearch search;           // the search of start_near()
   registration::PoseSearch gps_search = [] {
     registration::PoseSearch s;
     s.yaw_range_deg = 180.0;  // a fix has no heading
@@ -89,7 +89,7 @@ class VehicleLocalizer {
   void add_odometry_pose(double t, const Eigen::Isometry3d& base_in_odom);
   void add_odometry_increment(double t, const Eigen::Isometry3d& delta);  // since the previous sample
   void add_twist(double t, const Eigen::Vector3d& linear_mps, const Eigen::Vector3d& angular_radps);
-  void add_wheel_travel(double t, double left_m, double right_m);  // cumulative metres
+  void add_wheel_travel(double t, double left_m, double right_m);         // cumulative metres
   void add_wheel_ticks(double t, std::int64_t left, std::int64_t right);  // cumulative ticks
 
   // A scan (LiDAR frame) taken at t. rings: one per point, needed when localizer.scan.beams keeps
