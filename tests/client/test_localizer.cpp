@@ -34,16 +34,7 @@ using pl::test::Surface;
 // The surfaces sampled every `step` metres, cut into tiles (the hash names a tile's content, as the
 // server's does).
 std::vector<MapTile> tiles_of(const std::vector<Surface>& surfaces, double step, double tile_size) {
-  std::vector<Eigen::Vector3d> points;
-  std::vector<Eigen::Vector3f> normals;
-  pl::test::sample_surfaces(surfaces, step, points, normals);
-  std::map<pl::TileKey, pl::TileCloud> tiles;
-  const pl::TileGrid grid(tile_size);
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    auto& t = tiles[grid.key_of(points[i].x(), points[i].y())];
-    t.points.push_back(points[i]);
-    t.normals.push_back(normals[i]);
-  }
+  auto tiles = pl::test::surface_tiles(surfaces, step, tile_size);
   std::vector<MapTile> out;
   for (auto& [key, cloud] : tiles)
     out.push_back({key, std::to_string(key.tx) + "," + std::to_string(key.ty) + "/" + std::to_string(cloud.size()),

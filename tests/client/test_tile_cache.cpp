@@ -14,6 +14,7 @@
 #include "pl/client/tile_cache.hpp"
 #include "pl/common/error.hpp"
 #include "pl/schema/store.hpp"
+#include "raw_sql.hpp"
 #include "test_util.hpp"
 
 using pl::client::TileCache;
@@ -32,16 +33,7 @@ std::string error_of(const std::function<void()>& f) {
 
 bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
-void raw_sql(const std::string& path, const std::string& sql) {
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-  char* err = nullptr;
-  int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err);
-  std::string msg = err ? err : "";
-  sqlite3_free(err);
-  sqlite3_close(db);
-  ASSERT_EQ(rc, SQLITE_OK) << sql << ": " << msg;
-}
+using pl::test::raw_sql;
 
 // A cache with 40 blobs of 2 KB, a manifest and a version's rows (40 tiles and one key without a
 // tile); returns the hash of the first blob.

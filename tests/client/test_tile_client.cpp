@@ -27,6 +27,7 @@
 #include "pl/common/tile_key.hpp"
 #include "pl/schema/store.hpp"
 #include "server_process.hpp"
+#include "raw_sql.hpp"
 #include "test_util.hpp"
 
 using nlohmann::json;
@@ -309,16 +310,7 @@ void expect_cache_damaged(const std::string& msg, const std::string& path, const
   EXPECT_NE(msg.find(detail), std::string::npos) << msg;
 }
 
-void raw_sql(const std::string& path, const std::string& sql) {
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
-  char* err = nullptr;
-  int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err);
-  std::string msg = err ? err : "";
-  sqlite3_free(err);
-  sqlite3_close(db);
-  ASSERT_EQ(rc, SQLITE_OK) << sql << ": " << msg;
-}
+using pl::test::raw_sql;
 
 }  // namespace
 

@@ -25,16 +25,7 @@ constexpr double kTile = 20.0;
 
 // The street of scene.hpp as map "street" version 1 of a real map store.
 std::string street_store(const pl::test::TempDir& dir) {
-  std::vector<Eigen::Vector3d> points;
-  std::vector<Eigen::Vector3f> normals;
-  pl::test::sample_surfaces(pl::test::street(), 0.2, points, normals);
-  std::map<pl::TileKey, pl::TileCloud> tiles;
-  const pl::TileGrid grid(kTile);
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    auto& t = tiles[grid.key_of(points[i].x(), points[i].y())];
-    t.points.push_back(points[i]);
-    t.normals.push_back(normals[i]);
-  }
+  const auto tiles = pl::test::surface_tiles(pl::test::street(), 0.2, kTile);
   const std::string path = dir / "maps.sqlite";
   auto store = pl::store::Store::open(path);
   store.create_map("street", pl::GeoPoint{49.0, 8.4, 110.0}, kTile, 0.2);

@@ -7,7 +7,11 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <map>
 #include <vector>
+
+#include "pl/common/tile_codec.hpp"
+#include "pl/common/tile_key.hpp"
 
 namespace pl::test {
 
@@ -73,6 +77,21 @@ inline std::vector<Eigen::Vector3f> scan_of(const std::vector<Surface>& surfaces
       }
   }
   return out;
+}
+
+// The surfaces sampled every `step` metres, cut into the tiles of a `tile_size` grid.
+inline std::map<pl::TileKey, pl::TileCloud> surface_tiles(const std::vector<Surface>& surfaces, double step, double tile_size) {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector3f> normals;
+  sample_surfaces(surfaces, step, points, normals);
+  std::map<pl::TileKey, pl::TileCloud> tiles;
+  const pl::TileGrid grid(tile_size);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    auto& t = tiles[grid.key_of(points[i].x(), points[i].y())];
+    t.points.push_back(points[i]);
+    t.normals.push_back(normals[i]);
+  }
+  return tiles;
 }
 
 }  // namespace pl::test
