@@ -1,4 +1,5 @@
-// The map store over SQLite. See store.hpp for the semantics and schema/001_initial.sql for the
+// The map store over SQLite: opening and migrating, maps and versions (tiles, blobs, tokens and the
+// upload log: store_tiles.cpp). See store.hpp for the semantics and schema/001_initial.sql for the
 // tables. All values reach SQL through bound parameters; the only SQL built from strings are
 // PRAGMAs and savepoints whose text comes from this file (integers and fixed identifiers).
 #include "pl/schema/store.hpp"
@@ -16,6 +17,7 @@
 
 #include "pl/common/error.hpp"
 #include "pl/schema/detail/sqlite.hpp"
+#include "store_internal.hpp"
 
 namespace pl::store {
 
@@ -27,7 +29,7 @@ using sqlite::Row;
 using sqlite::Stmt;
 using sqlite::WriteScope;
 
-namespace {
+namespace detail {
 
 struct Migration {
   int number;
@@ -82,8 +84,6 @@ VersionState read_state(const Row& row, int col, const char* column) {
   row.bad(column, "is not one of staged, published, retired");
 }
 
-constexpr std::int64_t kMaxInt64 = std::numeric_limits<std::int64_t>::max();
-constexpr std::int64_t kMinKey = std::numeric_limits<std::int32_t>::min(), kMaxKey = std::numeric_limits<std::int32_t>::max();
 
 // ---- maps ----------------------------------------------------------------------------------------
 
@@ -210,9 +210,6 @@ void require_staged(const Db& db, const std::string& map, std::int64_t map_id,
 
 // ---- tiles ---------------------------------------------------------------------------------------
 
-constexpr const char* kTileColumns =
-    "SELECT t.tx, t.ty, t.hash, t.points, t.bytes, t.min_x, t.min_y, t.min_z, t.max_x, t.max_y, t.max_z "
-    "FROM tiles AS t ";
 
 TileRecord read_tile(const Stmt& st) {
   Row row(st, "tiles");
@@ -336,7 +333,9 @@ void migrate(const Db& db) {
   exec(db, "PRAGMA foreign_keys = ON");
 }
 
-}  // namespace
+}  // namespace detail
+
+using namespace detail;
 
 const char* state_name(VersionState s) {
   switch (s) {
@@ -583,274 +582,6 @@ std::int64_t Store::rollback(const std::string& map) {
       .run();
   tx.commit();
   return *prev;
-}
-
-// ---- tiles ---------------------------------------------------------------------------------------
-
-TileRecord Store::put_tile(const std::string& map, std::int64_t version, const TileKey& key,
-                           std::string_view draco_bytes, std::int64_t points, double min_x, double min_y, double min_z,
-                           double max_x, double max_y, double max_z) {
-  const Db db = handle(db_, path_);
-  const std::string where =
-      path_ + ": map " + map + " version " + num(version) + " tile (" + num(key.tx) + ", " + num(key.ty) + ")";
-  if (draco_bytes.empty()) throw Error(where + ": empty tile data");
-  if (draco_bytes.size() > sqlite::kMaxValueBytes)
-    throw Error(where + ": " + num(static_cast<std::int64_t>(draco_bytes.size())) +
-                " bytes of tile data, more than the store's limit of " + num(sqlite::kMaxValueBytes >> 20) + " MiB");
-  if (points < 0) throw Error(where + ": negative point count");
-  for (double v : {min_x, min_y, min_z, max_x, max_y, max_z})
-    if (!std::isfinite(v)) throw Error(where + ": bounds must be finite numbers");
-  if (!(min_x <= max_x && min_y <= max_y && min_z <= max_z)) throw Error(where + ": bounds have min > max");
-
-  TileRecord rec;
-  rec.key = key;
-  rec.hash = content_hash(draco_bytes);
-  rec.points = points;
-  rec.bytes = static_cast<std::int64_t>(draco_bytes.size());
-  rec.min_x = min_x, rec.min_y = min_y, rec.min_z = min_z;
-  rec.max_x = max_x, rec.max_y = max_y, rec.max_z = max_z;
-
-  WriteScope tx(db);
-  std::int64_t map_id = require_map(db, map);
-  require_staged(db, map, map_id, version);
-  auto old_hash = tile_hash(db, map_id, version, key);
-  // The blob once per content: a second tile with the same bytes only adds a row.
-  Stmt(db, "INSERT INTO blobs (hash, bytes, size) VALUES (?1, ?2, ?3) ON CONFLICT (hash) DO NOTHING")
-      .bind_text(1, rec.hash)
-      .bind_blob_static(2, draco_bytes)
-      .bind_int64(3, rec.bytes)
-      .run();
-  // Same key: update the row in place (same id), and not at all when nothing changed.
-  Stmt(db,
-       "INSERT INTO tiles (map_id, version, tx, ty, hash, points, bytes, min_x, min_y, min_z, max_x, max_y, max_z) "
-       "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13) "
-       "ON CONFLICT (map_id, version, tx, ty) DO UPDATE SET hash = excluded.hash, points = excluded.points, "
-       "bytes = excluded.bytes, min_x = excluded.min_x, min_y = excluded.min_y, min_z = excluded.min_z, "
-       "max_x = excluded.max_x, max_y = excluded.max_y, max_z = excluded.max_z "
-       "WHERE (hash, points, bytes, min_x, min_y, min_z, max_x, max_y, max_z) IS NOT "
-       "(excluded.hash, excluded.points, excluded.bytes, excluded.min_x, excluded.min_y, excluded.min_z, "
-       "excluded.max_x, excluded.max_y, excluded.max_z)")
-      .bind_int64(1, map_id)
-      .bind_int64(2, version)
-      .bind_int64(3, key.tx)
-      .bind_int64(4, key.ty)
-      .bind_text(5, rec.hash)
-      .bind_int64(6, rec.points)
-      .bind_int64(7, rec.bytes)
-      .bind_double(8, min_x)
-      .bind_double(9, min_y)
-      .bind_double(10, min_z)
-      .bind_double(11, max_x)
-      .bind_double(12, max_y)
-      .bind_double(13, max_z)
-      .run();
-  if (old_hash && *old_hash != rec.hash) drop_blob_if_unused(db, *old_hash);
-  tx.commit();
-  return rec;
-}
-
-bool Store::delete_tile(const std::string& map, std::int64_t version, const TileKey& key) {
-  const Db db = handle(db_, path_);
-  WriteScope tx(db);
-  std::int64_t map_id = require_map(db, map);
-  require_staged(db, map, map_id, version);
-  auto hash = tile_hash(db, map_id, version, key);
-  if (!hash) return false;
-  Stmt(db, "DELETE FROM tiles WHERE map_id = ?1 AND version = ?2 AND tx = ?3 AND ty = ?4")
-      .bind_int64(1, map_id)
-      .bind_int64(2, version)
-      .bind_int64(3, key.tx)
-      .bind_int64(4, key.ty)
-      .run();
-  drop_blob_if_unused(db, *hash);
-  tx.commit();
-  return true;
-}
-
-std::optional<TileRecord> Store::find_tile(const std::string& map, std::int64_t version, const TileKey& key) const {
-  const Db db = handle(db_, path_);
-  auto map_id = find_map_id(db, map);
-  if (!map_id) return std::nullopt;
-  Stmt st(db,
-          (std::string(kTileColumns) + "WHERE t.map_id = ?1 AND t.version = ?2 AND t.tx = ?3 AND t.ty = ?4").c_str());
-  st.bind_int64(1, *map_id).bind_int64(2, version).bind_int64(3, key.tx).bind_int64(4, key.ty);
-  if (!st.step()) return std::nullopt;
-  return read_tile(st);
-}
-
-std::vector<TileRecord> Store::list_tiles(const std::string& map, std::int64_t version) const {
-  const Db db = handle(db_, path_);
-  std::vector<TileRecord> out;
-  auto map_id = find_map_id(db, map);
-  if (!map_id) return out;
-  Stmt st(db, (std::string(kTileColumns) + "WHERE t.map_id = ?1 AND t.version = ?2 ORDER BY t.tx, t.ty").c_str());
-  st.bind_int64(1, *map_id).bind_int64(2, version);
-  while (st.step()) out.push_back(read_tile(st));
-  return out;
-}
-
-std::vector<TileRecord> Store::tiles_in_box(const std::string& map, std::int64_t version, double min_x, double min_y,
-                                            double max_x, double max_y) const {
-  const Db db = handle(db_, path_);
-  std::vector<TileRecord> out;
-  if (!(min_x <= max_x && min_y <= max_y)) return out;  // inverted or NaN: nothing
-  auto map_id = find_map_id(db, map);
-  if (!map_id) return out;
-  // CROSS JOIN keeps the R*Tree as the outer loop (SQLite does not reorder it), so the search is
-  // spatial first; the R*Tree's float32 boxes are rounded outwards, hence the exact re-check on
-  // tiles' own bounds. The R*Tree holds every version's tiles; the map/version filter follows.
-  Stmt st(db,
-          "SELECT t.tx, t.ty, t.hash, t.points, t.bytes, t.min_x, t.min_y, t.min_z, t.max_x, t.max_y, t.max_z "
-          "FROM tile_rtree AS r CROSS JOIN tiles AS t ON t.id = r.id "
-          "WHERE r.min_x <= ?5 AND r.max_x >= ?3 AND r.min_y <= ?6 AND r.max_y >= ?4 "
-          "AND t.map_id = ?1 AND t.version = ?2 "
-          "AND t.min_x <= ?5 AND t.max_x >= ?3 AND t.min_y <= ?6 AND t.max_y >= ?4 "
-          "ORDER BY t.tx, t.ty");
-  st.bind_int64(1, *map_id)
-      .bind_int64(2, version)
-      .bind_double(3, min_x)
-      .bind_double(4, min_y)
-      .bind_double(5, max_x)
-      .bind_double(6, max_y);
-  while (st.step()) out.push_back(read_tile(st));
-  return out;
-}
-
-std::optional<std::string> Store::blob(const std::string& hash) const {
-  Stmt st(handle(db_, path_), "SELECT bytes FROM blobs WHERE hash = ?1");
-  st.bind_text(1, hash);
-  if (!st.step()) return std::nullopt;
-  Row row(st, "blobs");
-  std::string bytes = row.blob(0, "bytes");
-  // SQLite keeps no checksums of its own: bytes that changed on disk are only caught here, and are
-  // never handed out (the server would serve them as immutable under a hash they do not have).
-  if (content_hash(bytes) != hash) row.bad("bytes", "of blob " + plain(hash) + " do not match its content hash");
-  return bytes;
-}
-
-bool Store::has_blob(const std::string& hash) const {
-  Stmt st(handle(db_, path_), "SELECT 1 FROM blobs WHERE hash = ?1");
-  st.bind_text(1, hash);
-  return st.step();
-}
-
-// ---- tokens and the upload log -------------------------------------------------------------------
-
-void Store::add_token(const std::string& token, Role role, const std::string& note) {
-  const Db db = handle(db_, path_);
-  if (token.empty()) throw Error(path_ + ": empty token");
-  if (!parse_role(role_name(role))) throw Error(path_ + ": invalid role " + num(static_cast<int>(role)));
-  std::string hash = content_hash(token);
-  WriteScope tx(db);
-  {
-    Stmt st(db, "SELECT 1 FROM tokens WHERE hash = ?1");
-    st.bind_text(1, hash);
-    // Never echo the token itself into a message.
-    if (st.step()) throw Error(path_ + ": this token is already registered");
-  }
-  Stmt(db, "INSERT INTO tokens (hash, role, note) VALUES (?1, ?2, ?3)")
-      .bind_text(1, hash)
-      .bind_text(2, role_name(role))
-      .bind_text(3, note)
-      .run();
-  tx.commit();
-}
-
-std::optional<Role> Store::check_token(const std::string& token) const {
-  const Db db = handle(db_, path_);
-  if (token.empty()) return std::nullopt;
-  Stmt st(db, "SELECT role FROM tokens WHERE hash = ?1");
-  st.bind_text(1, content_hash(token));
-  if (!st.step()) return std::nullopt;
-  Row row(st, "tokens");
-  auto role = parse_role(row.text(0, "role"));
-  if (!role) row.bad("role", "is not one of read, upload, admin");
-  return role;
-}
-
-void Store::log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
-                       const std::string& detail, const std::string& who) {
-  const Db db = handle(db_, path_);
-  if (action.empty()) throw Error(path_ + ": upload log entry without an action");
-  Stmt(db, "INSERT INTO upload_log (map, version, action, detail, who) VALUES (?1, ?2, ?3, ?4, ?5)")
-      .bind_text(1, map)
-      .bind_opt_int64(2, version)
-      .bind_text(3, action)
-      .bind_text(4, detail)
-      .bind_text(5, who)
-      .run();
-}
-
-std::vector<Store::LogEntry> Store::upload_log(const std::string& map) const {
-  Stmt st(handle(db_, path_),
-          "SELECT id, at, map, version, action, detail, who FROM upload_log WHERE map = ?1 ORDER BY id");
-  st.bind_text(1, map);
-  std::vector<LogEntry> out;
-  while (st.step()) {
-    Row row(st, "upload_log");
-    LogEntry e;
-    e.id = row.integer(0, "id");
-    e.at = read_timestamp(row, 1, "at");
-    e.map = row.text(2, "map");
-    e.version = row.opt_integer(3, "version", std::numeric_limits<std::int64_t>::min(), kMaxInt64);
-    e.action = row.text(4, "action");
-    e.detail = row.text(5, "detail");
-    e.who = row.text(6, "who");
-    out.push_back(std::move(e));
-  }
-  return out;
-}
-
-// ---- transactions and maintenance ----------------------------------------------------------------
-
-Store::Transaction::Transaction(Store& store) : store_(store) {
-  nested_ = sqlite::begin_write(handle(store_.db_, store_.path_), "pl_transaction");
-}
-
-void Store::Transaction::commit() {
-  if (done_) throw Error(store_.path_ + ": transaction committed twice");
-  sqlite::commit_write(handle(store_.db_, store_.path_), "pl_transaction", nested_);
-  done_ = true;
-}
-
-Store::Transaction::~Transaction() {
-  if (!done_ && store_.db_)
-    sqlite::rollback_write_quietly(static_cast<sqlite3*>(store_.db_), "pl_transaction", nested_);
-}
-
-std::int64_t Store::database_bytes() const {
-  const Db db = handle(db_, path_);
-  return pragma_int(db, "PRAGMA page_count") * pragma_int(db, "PRAGMA page_size");
-}
-
-bool Store::integrity_ok() const {
-  const Db db = handle(db_, path_);
-  try {
-    {
-      Stmt st(db, "PRAGMA integrity_check");
-      if (!st.step() || st.text(0) != "ok" || st.step()) return false;
-    }
-    {
-      Stmt st(db, "PRAGMA foreign_key_check");
-      if (st.step()) return false;
-    }
-    {
-      Stmt st(db, "SELECT rtreecheck('tile_rtree')");
-      if (!st.step() || st.text(0) != "ok") return false;
-    }
-    {
-      // One R*Tree entry per tile, with a box that contains the tile's xy box.
-      Stmt st(db, "SELECT (SELECT count(*) FROM tiles) = (SELECT count(*) FROM tile_rtree) AND NOT EXISTS ("
-              "SELECT 1 FROM tiles AS t WHERE NOT EXISTS (SELECT 1 FROM tile_rtree AS r WHERE r.id = t.id "
-              "AND r.min_x <= t.min_x AND r.max_x >= t.max_x AND r.min_y <= t.min_y AND r.max_y >= t.max_y))");
-      if (!st.step() || st.int64(0) != 1) return false;
-    }
-  } catch (const Error&) {
-    int code = sqlite3_errcode(db.get()) & 0xFF;
-    if (code == SQLITE_CORRUPT || code == SQLITE_NOTADB) return false;
-    throw;
-  }
-  return true;
 }
 
 }  // namespace pl::store

@@ -1,0 +1,54 @@
+// The parts of a request and an answer that the API's handlers share: errors that become answers,
+// JSON answers, gzip, the target's path segments and query, and the checked numbers in them.
+// Private to pl_server.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "pl/common/tile_key.hpp"
+#include "pl/server/api.hpp"
+
+namespace pl::server::api_parts {
+
+using nlohmann::json;
+
+// Thrown by a handler, answered as a JSON error with this status (and extra headers).
+struct HttpError {
+  int status;
+  std::string message;
+  std::vector<std::pair<std::string, std::string>> headers;
+};
+
+// Throws HttpError; the message echoes what the client sent, so it is made valid UTF-8 first.
+[[noreturn]] void fail(int status, const std::string& message);
+ApiResponse json_response(int status, const json& j, const std::string& route);
+
+// The methods of each resource, for 405 answers and OPTIONS.
+constexpr const char* kReadOnly = "GET, HEAD, OPTIONS";
+constexpr const char* kPostOnly = "POST, OPTIONS";
+[[noreturn]] void method_not_allowed(const std::string& method, const std::string& route, const char* allow);
+
+// Does an Accept-Encoding header accept gzip (RFC 9110 12.5.3 q-values)?
+bool accepts_gzip(std::string_view header);
+std::string gzip(std::string_view in);
+
+std::string url_decode(std::string_view s);
+struct Target {
+  std::vector<std::string> segments;
+  std::map<std::string, std::string> query;
+};
+Target parse_target(const std::string& target);
+// A query parameter as a number (fail(400) when it is not one, or missing and required).
+double query_number(const Target& t, const std::string& key, bool required, double fallback);
+std::int64_t parse_version(const std::string& s);     // fail(400) unless a whole number >= 1
+std::int32_t parse_tile_index(const std::string& s);  // fail(400) unless a whole int32
+std::string tile_url(const std::string& map, std::int64_t v, const TileKey& k);
+
+}  // namespace pl::server::api_parts
