@@ -4,21 +4,18 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <optional>
 #include <set>
-
-#include <nlohmann/json.hpp>
 
 #include "pl/common/cli.hpp"
 #include "pl/common/cloud_io.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/progress.hpp"
 #include "pl/common/text.hpp"
-#include "pl/maps/loam.hpp"
-#include "pl/maps/loop_closure.hpp"
-#include "pl/maps/map_builder.hpp"
-#include "pl/registration/normals.hpp"
-#include "pl/maps/pose_graph.hpp"
+#include "pl/common/output_path.hpp"
+#include "pl/maps/gloam.hpp"
+#include "pl/maps/import.hpp"
 #include "pl/maps/push.hpp"
 #include "pl/schema/store.hpp"
 
@@ -64,199 +61,51 @@ int cmd_build(const pl::Args& a) {
   std::string poses = a.get_or("--poses", "gt");
   std::string out = a.require("--out", "FILE.pcd (where to write the map)");
   auto traj_out = a.get("--traj-out");
-  const bool use_gps = a.has("--gps");
-  const bool use_loops = a.has("--loops");
   auto report_path = a.get("--report");
   std::string deskew = a.get_or("--deskew", "auto");
-  pl::maps::MapBuildConfig cfg;
-  cfg.voxel_m = a.get_double("--voxel", cfg.voxel_m);
-  cfg.every = static_cast<std::size_t>(std::max<long long>(1, a.get_int("--every", 1)));
-  cfg.scan.min_range_m = a.get_double("--min-range", 2.0);
-  cfg.scan.max_range_m = a.get_double("--max-range", 80.0);
+  pl::maps::GloamConfig cfg;
+  cfg.gps = a.has("--gps");
+  cfg.loops = a.has("--loops");
+  cfg.merge.voxel_m = a.get_double("--voxel", cfg.merge.voxel_m);
+  cfg.merge.every = static_cast<std::size_t>(std::max<long long>(1, a.get_int("--every", 1)));
+  cfg.merge.scan.min_range_m = a.get_double("--min-range", cfg.merge.scan.min_range_m);
+  cfg.merge.scan.max_range_m = a.get_double("--max-range", cfg.merge.scan.max_range_m);
   a.finish();
   if (poses != "gt" && poses != "lidar")
     throw pl::Error("--poses takes gt (the dataset's ground truth) or lidar (LiDAR odometry alone), not " + poses);
   if (deskew != "auto" && deskew != "on" && deskew != "off") throw pl::Error("--deskew takes auto, on or off, not " + deskew);
-  if (use_gps && poses != "lidar") throw pl::Error("--gps needs --poses lidar (it corrects the LiDAR odometry)");
-  if (use_loops && poses != "lidar") throw pl::Error("--loops needs --poses lidar (it corrects the LiDAR odometry)");
-  pl::Dataset ds = pl::open_dataset(dir);
-  if (ds.size() == 0) throw pl::Error(ds.dir + ": no scans");
-  std::vector<pl::maps::GpsEdge> gps_edges;
-  if (use_gps) {
-    if (ds.gps.empty()) throw pl::Error(ds.dir + ": --gps needs GPS fixes (gps.csv or OXTS), and the drive has none");
-    gps_edges = pl::maps::gps_edges_from_dataset(ds);  // throws when the fixes cannot be placed in the world frame
-    if (gps_edges.empty()) throw pl::Error(ds.dir + ": no usable GPS fix (status other than none, within 0.05 s of a scan)");
-  }
-  nlohmann::json report;
-  report["dataset"] = ds.dir;
-  report["scans"] = ds.size();
-  report["poses"] = poses;
-  // Mean translation error against ground truth, when the dataset has it.
-  auto mean_error = [&](const pl::Trajectory& t) {
-    double sum = 0;
-    for (std::size_t i = 0; i < ds.size(); ++i) sum += (t.poses[i].translation() - ds.ground_truth.poses[i].translation()).norm();
-    return sum / static_cast<double>(ds.size());
+  cfg.poses = poses == "gt" ? pl::maps::PoseSource::GroundTruth : pl::maps::PoseSource::Lidar;
+  cfg.deskew = deskew == "on" ? pl::maps::Deskew::On : deskew == "off" ? pl::maps::Deskew::Off : pl::maps::Deskew::Auto;
+  pl::maps::check_gloam_config(cfg);
+  // Every output is checked before the work starts: a bad path fails now, not after hours.
+  pl::check_output_file(out);
+  if (traj_out) pl::check_output_file(*traj_out);
+  if (report_path) pl::check_output_file(*report_path);
+  const pl::Dataset ds = pl::open_dataset(dir);
+  pl::StageProgress bars;
+  pl::maps::GloamObserver observer;
+  observer.progress = [&](const std::string& stage, std::size_t done, std::size_t total) { bars.update(stage, done, total); };
+  observer.log = [&](const std::string& line) {
+    bars.finish();
+    std::printf("%s\n", line.c_str());
   };
-
-  pl::Trajectory placed;  // one LiDAR pose per scan of the dataset
-  std::optional<pl::GeoPoint> origin = ds.meta.origin;
-  if (poses == "gt") {
-    if (!ds.has_ground_truth()) throw pl::Error(ds.dir + ": --poses gt needs ground-truth poses (poses.txt or OXTS)");
-    placed = ds.ground_truth;
-  } else {
-    // The odometry runs over every scan (it needs them all to follow the drive; --every thins the map only).
-    pl::maps::LoamConfig lc;
-    // Real recordings (no meta.json: KITTI) sweep while the car moves; pl-sim's scans are taken at one pose.
-    lc.deskew = deskew == "on" || (deskew == "auto" && !ds.has_meta_file);
-    if (ds.meta.sensor.rate_hz > 0) lc.scan_period_s = 1.0 / ds.meta.sensor.rate_hz;
-    pl::maps::LoamOdometry odometry(lc);
-    // Without GPS: started at the first ground-truth pose when there is one, so that the map lies in
-    // the dataset's world frame; otherwise in the first scan's frame, which has no geodetic origin.
-    // With GPS the ground truth is not used at all: the odometry starts in the first scan's frame
-    // and the fixes place it.
-    const bool start_at_truth = ds.has_ground_truth() && !use_gps;
-    if (start_at_truth)
-      odometry.start(ds.ground_truth.poses[0]);
-    else
-      origin.reset();
-    std::vector<double> ms;
-    std::vector<pl::maps::Information6> information;
-    std::size_t degenerate = 0;
-    // The graph's keyframes are chosen by a causal rule, so their clouds for loop closure are kept
-    // as the odometry runs (thinned; the other scans are not held).
-    pl::maps::PoseGraphConfig gc;
-    std::vector<std::vector<Eigen::Vector3f>> keyframe_clouds;
-    pl::Pose last_keyframe = pl::Pose::Identity();
-    pl::ScanPrepConfig loop_prep = cfg.scan;
-    loop_prep.voxel_m = 0.3;
-    const auto t_start = std::chrono::steady_clock::now();
-    pl::Progress bar("lidar odometry", ds.size());
-    for (std::size_t i = 0; i < ds.size(); ++i) {
-      pl::Scan scan = ds.load_scan(i);
-      pl::maps::LoamFrame f = odometry.add(scan, ds.rings(scan), ds.times[i]);
-      placed.poses.push_back(f.pose);
-      information.push_back(f.information);
-      ms.push_back(f.ms);
-      degenerate += f.degenerate;
-      if (use_loops && (i == 0 || pl::maps::is_new_keyframe(last_keyframe, f.pose, gc))) {
-        last_keyframe = f.pose;
-        std::vector<Eigen::Vector3f> cloud;
-        for (const pl::PointXYZI& p : pl::prepare_scan(scan, {}, loop_prep)) cloud.emplace_back(p.x, p.y, p.z);
-        keyframe_clouds.push_back(std::move(cloud));
-      }
-      bar.update(i + 1);
-    }
-    bar.finish();
-    placed.times = ds.times;
-    std::sort(ms.begin(), ms.end());
-    std::printf("lidar odometry: %zu scans (deskew %s), median %.1f ms a scan, %zu degenerate%s\n", ds.size(), lc.deskew ? "on" : "off",
-                ms[ms.size() / 2], degenerate, start_at_truth ? ", started at the first ground-truth pose" : ", in the first scan's frame");
-    report["odometry"] = {{"median_ms", ms[ms.size() / 2]}, {"degenerate", degenerate}, {"deskew", lc.deskew}};
-    if (ds.has_ground_truth()) {
-      // The odometry's error as if it had started at the first ground-truth pose.
-      pl::Trajectory from_truth = placed;
-      if (!start_at_truth)
-        for (pl::Pose& p : from_truth.poses) p = ds.ground_truth.poses[0] * p;
-      report["mean_error_before_m"] = mean_error(from_truth);
-    }
-    if (use_gps || use_loops) {
-      pl::maps::PoseGraph graph(placed.poses, information, gps_edges, ds.meta.vehicle.gps_lever_arm, gc);
-      graph.optimize();
-      if (use_gps) {
-        // The GPS fixes set the world frame: the map keeps the dataset's origin even without ground truth.
-        origin = ds.meta.origin;
-        if (ds.has_ground_truth()) {
-          pl::Trajectory t = placed;
-          t.poses = graph.poses();
-          report["mean_error_gps_m"] = mean_error(t);
-        }
-      }
-      if (use_loops) {
-        pl::maps::LoopClosureConfig lcc;
-        pl::Progress loop_bar("loop closure", graph.keyframes().size());
-        const pl::maps::LoopReport lr =
-            pl::maps::close_loops(graph, keyframe_clouds, lcc, [&](std::size_t done, std::size_t) { loop_bar.update(done); });
-        loop_bar.finish();
-        std::printf("loop closure: %zu queries, proposed %zu by position and %zu by place; %zu accepted, %zu rejected; "
-                    "loop residual median %.3f m -> %.3f m; %.1f s verifying\n",
-                    lr.queries, lr.proposed_by_position, lr.proposed_by_descriptor, lr.accepted, lr.rejected, lr.residual_before_m,
-                    lr.residual_after_m, lr.verify_ms / 1000.0);
-        nlohmann::json loops = nlohmann::json::array();
-        for (const pl::maps::LoopRecord& l : lr.loops)
-          loops.push_back({{"query_scan", graph.keyframes()[l.query]},
-                           {"match_scan", graph.keyframes()[l.match]},
-                           {"proposed_by", l.by_descriptor ? "place" : "position"},
-                           {"accepted", l.accepted},
-                           {"reason", l.reason},
-                           {"descriptor_distance", l.descriptor_distance},
-                           {"overlap", l.overlap},
-                           {"rms_m", l.rms_m},
-                           {"correction_m", l.correction_m},
-                           {"drift_m", l.drift_m}});
-        report["loops"] = {{"queries", lr.queries},
-                           {"proposed_by_position", lr.proposed_by_position},
-                           {"proposed_by_place", lr.proposed_by_descriptor},
-                           {"accepted", lr.accepted},
-                           {"rejected", lr.rejected},
-                           {"rejected_by_reason", lr.rejected_by_reason},
-                           {"residual_before_m", lr.residual_before_m},
-                           {"residual_after_m", lr.residual_after_m},
-                           {"verify_ms", lr.verify_ms},
-                           {"edges", loops}};
-      }
-      placed.poses = graph.poses();
-      const pl::maps::PoseGraphReport r = graph.report();
-      std::printf("pose graph: %zu keyframes, %zu GPS edges (%zu outliers), %zu loop edges, GPS residual RMS %.3f m -> %.3f m, "
-                  "%d solves, %d iterations, %.0f ms (%s)\n",
-                  r.keyframes, r.gps_edges, r.gps_outliers, r.loop_edges, r.gps_rms_before_m, r.gps_rms_after_m, r.solves, r.iterations,
-                  r.solve_ms, r.termination.c_str());
-      report["pose_graph"] = {{"keyframes", r.keyframes},
-                              {"gps_edges", r.gps_edges},
-                              {"gps_outliers", r.gps_outliers},
-                              {"gps_rms_before_m", r.gps_rms_before_m},
-                              {"gps_rms_after_m", r.gps_rms_after_m},
-                              {"loop_edges", r.loop_edges},
-                              {"solves", r.solves},
-                              {"iterations", r.iterations},
-                              {"solve_ms", r.solve_ms},
-                              {"termination", r.termination}};
-    }
-    const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-    report["trajectory_ms_per_scan"] = 1000.0 * total_s / static_cast<double>(ds.size());
-    std::printf("trajectory: %.1f ms a scan in all (odometry%s%s)\n", 1000.0 * total_s / static_cast<double>(ds.size()),
-                use_gps ? " + GPS" : "", use_loops ? " + loops" : "");
-    if (ds.has_ground_truth()) report["mean_error_after_m"] = mean_error(placed);
-  }
+  const pl::maps::GloamResult r = pl::maps::build_gloam_map(ds, cfg, observer);
+  bars.finish();
   if (report_path) {
     std::ofstream f(*report_path);
-    f << report.dump(2) << "\n";
+    f << r.report_json;
     if (!f) throw pl::Error(*report_path + ": cannot write the report");
     std::printf("wrote %s\n", report_path->c_str());
   }
   if (traj_out) {
     // KITTI (12 numbers a line), or TUM with the scan times when the file name ends in .tum.
-    pl::Trajectory kitti = placed;
-    kitti.times = ds.times;
     const bool tum = traj_out->size() > 4 && traj_out->compare(traj_out->size() - 4, 4, ".tum") == 0;
-    kitti.format = tum ? pl::PoseFormat::Tum : pl::PoseFormat::Kitti;
-    if (tum)
-      pl::write_tum_poses(*traj_out, kitti);
-    else
-      pl::write_kitti_poses(*traj_out, kitti);
-    const char* source = poses == "gt"            ? "ground truth"
-                         : use_gps && use_loops ? "lidar odometry + GPS + loops pose graph"
-                         : use_gps              ? "lidar odometry + GPS pose graph"
-                         : use_loops            ? "lidar odometry + loops pose graph"
-                                                : "lidar odometry";
-    std::printf("wrote %s: %zu LiDAR poses (%s), one per scan\n", traj_out->c_str(), kitti.size(), source);
+    pl::write_trajectory(*traj_out, r.poses, tum ? pl::PoseFormat::Tum : pl::PoseFormat::Kitti);
+    std::printf("wrote %s: %zu LiDAR poses (%s), one per scan\n", traj_out->c_str(), r.poses.size(), r.source.c_str());
   }
-  std::size_t scans = (ds.size() + cfg.every - 1) / cfg.every;
-  pl::Progress bar("merging scans", scans);
-  pl::maps::MapCloud map = pl::maps::build_map_from_poses(ds, placed, cfg, [&](std::size_t done, std::size_t) { bar.update(done); });
-  bar.finish();
-  pl::write_pcd(out, map.points, map.intensity, origin);
-  std::printf("wrote %s: %zu points from %zu scans at %.2f m voxels\n", out.c_str(), map.points.size(),
-              scans, cfg.voxel_m);
+  pl::write_pcd(out, r.map.points, r.map.intensity, r.origin);
+  std::printf("wrote %s: %zu points from %zu scans at %.2f m voxels\n", out.c_str(), r.map.points.size(), r.merged_scans,
+              cfg.merge.voxel_m);
   return 0;
 }
 
@@ -265,74 +114,31 @@ int cmd_tile(const pl::Args& a) {
   std::string db = a.require("--db", "FILE (the SQLite map store; created when missing)");
   std::string name = a.require("--map", "NAME");
   auto origin_flag = a.get("--origin");
-  double voxel = a.get_double("--voxel", 0.2), tile_size = a.get_double("--tile-size", 20.0);
-  double radius = a.get_double("--normal-radius", 3.0 * voxel);
-  pl::TileCodecConfig codec;
-  codec.max_error_m = a.get_double("--max-error", codec.max_error_m);
-  std::string note = a.get_or("--note", "tiled from " + cloud_path);
+  pl::maps::ImportConfig cfg;
+  cfg.voxel_m = a.get_double("--voxel", cfg.voxel_m);
+  cfg.tile_size_m = a.get_double("--tile-size", cfg.tile_size_m);
+  cfg.normal_radius_m = a.get_double("--normal-radius", cfg.normal_radius_m);
+  cfg.codec.max_error_m = a.get_double("--max-error", cfg.codec.max_error_m);
+  cfg.note = a.get_or("--note", "");
   a.finish();
-  if (!(voxel > 0) || !(tile_size >= 1.0)) throw pl::Error("--voxel must be positive and --tile-size at least 1 m");
-  if (!(codec.max_error_m > 0 && codec.max_error_m <= 0.1)) throw pl::Error("--max-error takes metres in (0, 0.1]");
-
-  pl::Cloud cloud = pl::read_cloud(cloud_path);
+  pl::maps::check_import_config(cfg);
   if (origin_flag) {
     auto v = pl::parse_number_list(*origin_flag, 3, "--origin");
-    cloud.origin = pl::GeoPoint{v[0], v[1], v[2]};
+    cfg.origin = pl::GeoPoint{v[0], v[1], v[2]};
   }
-  pl::store::Store store = pl::store::Store::open(db);
-  auto existing = store.find_map(name);
-  if (!cloud.origin && !existing)
-    throw pl::Error(cloud_path + ": no origin recorded: give --origin LAT,LON,ALT (the geodetic origin of the cloud's ENU frame)");
-  if (existing) {
-    if (std::abs(existing->tile_size - tile_size) > 1e-9 || std::abs(existing->voxel_size - voxel) > 1e-9)
-      throw pl::Error("map " + name + " has " + std::to_string(existing->tile_size) + " m tiles and " +
-                      std::to_string(existing->voxel_size) + " m voxels: use --tile-size " + std::to_string(existing->tile_size) +
-                      " --voxel " + std::to_string(existing->voxel_size) + ", or another --map");
-    if (cloud.origin && (std::abs(cloud.origin->lat_deg - existing->origin.lat_deg) > 1e-9 ||
-                         std::abs(cloud.origin->lon_deg - existing->origin.lon_deg) > 1e-9))
-      throw pl::Error(cloud_path + ": its origin differs from map " + name + "'s: the cloud is in another frame (use another --map)");
-  }
-  if (cloud.points.empty()) throw pl::Error(cloud_path + ": no points");
-
-  std::vector<float> intensity;
-  pl::Points3d pts = pl::voxel_downsample(cloud.points, cloud.intensity, voxel, intensity);
-  auto normals = pl::registration::estimate_normals(pts, radius);
-  pl::TileGrid grid(tile_size);
-  auto tiles = pl::maps::cut_into_tiles(pts, normals, intensity, grid);
-
-  // Everything in one transaction: an interrupted import leaves no version behind.
-  pl::store::Store::Transaction tx(store);
-  if (!existing) store.create_map(name, *cloud.origin, tile_size, voxel);
-  pl::store::VersionInfo v = store.create_version(name, std::nullopt, note);
-  std::map<pl::TileKey, std::string> parent_hash;  // the new version starts as a copy of its parent
-  for (const auto& t : store.list_tiles(name, v.number)) parent_hash[t.key] = t.hash;
-  std::size_t changed = 0, unchanged = 0, removed = 0;
-  double bytes = 0;
-  pl::Progress bar("encoding tiles", tiles.size());
-  std::size_t done = 0;
-  for (const auto& [key, tile] : tiles) {
-    std::string enc = pl::encode_tile(tile, codec);
-    Eigen::Vector3d lo = tile.points.front(), hi = lo;
-    for (const auto& p : tile.points) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
-    auto rec = store.put_tile(name, v.number, key, enc, static_cast<std::int64_t>(tile.size()), lo.x(), lo.y(), lo.z(), hi.x(),
-                              hi.y(), hi.z());
-    auto it = parent_hash.find(key);
-    if (it != parent_hash.end() && it->second == rec.hash)
-      ++unchanged;
-    else
-      ++changed;
-    bytes += static_cast<double>(enc.size());
-    bar.update(++done);
-  }
-  bar.finish();
-  for (const auto& [key, hash] : parent_hash)
-    if (!tiles.count(key)) removed += store.delete_tile(name, v.number, key);
-  store.log_upload(name, v.number, "tile", note, "pl-map");
-  tx.commit();
+  if (!pl::file_exists(db)) pl::check_output_file(db);  // before the cloud is read
+  const pl::Cloud cloud = pl::read_cloud(cloud_path);
+  std::unique_ptr<pl::Progress> bars;
+  const pl::maps::ImportResult r = pl::maps::import_cloud(db, name, cloud, cloud_path, cfg, [&](std::size_t done, std::size_t total) {
+    if (!bars) bars = std::make_unique<pl::Progress>("encoding tiles", total);
+    bars->update(done);
+  });
+  if (bars) bars->finish();
+  const pl::store::VersionInfo& v = r.version;
   std::string parent = v.parent ? "parent v" + std::to_string(*v.parent) : "no parent";
   std::printf("map %s version %lld staged (%s): %zu tiles (%zu new or changed, %zu unchanged, %zu removed), %zu points, %s\n",
-              name.c_str(), static_cast<long long>(v.number), parent.c_str(), tiles.size(), changed, unchanged, removed, pts.size(),
-              mb(bytes).c_str());
+              name.c_str(), static_cast<long long>(v.number), parent.c_str(), r.tiles, r.changed, r.unchanged, r.removed, r.points,
+              mb(r.bytes).c_str());
   std::printf("publish it with: pl-map publish --db %s --map %s --version %lld\n", db.c_str(), name.c_str(),
               static_cast<long long>(v.number));
   return 0;

@@ -15,6 +15,7 @@
 #include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/geo.hpp"
+#include "pl/common/output_path.hpp"
 #include "pl/common/progress.hpp"
 #include "pl/common/voxel.hpp"
 
@@ -188,6 +189,7 @@ int cmd_scans(const pl::Args& args) {
   auto timing_path = args.get("--timing");
   args.finish();
   if (cfg.fov_deg <= 0 || cfg.fov_deg > 360) throw pl::Error("--fov takes degrees in (0, 360]");
+  if (timing_path) pl::check_output_file(*timing_path);  // before the work, not after it
   pl::Dataset ds = pl::open_dataset(args.positional()[1]);
   cfg.sensor_beams = ds.meta.sensor.beams;
   std::FILE* timing = nullptr;
