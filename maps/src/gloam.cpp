@@ -4,10 +4,12 @@
 #include <chrono>
 #include <cstdarg>
 #include <cstdio>
+#include <fstream>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "pl/common/cloud_io.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/scan.hpp"
 
@@ -215,10 +217,30 @@ GloamResult build_gloam_map(const Dataset& ds, const GloamConfig& cfg, const Glo
   result.source = source_name(cfg);
 
   result.merged_scans = (ds.size() + cfg.merge.every - 1) / cfg.merge.every;
+  result.voxel_m = cfg.merge.voxel_m;
   const std::size_t merged = result.merged_scans;
   result.map = build_map_from_poses(ds, result.poses, cfg.merge,
                                     [&](std::size_t done, std::size_t) { tell.progress("merging scans", done, merged); });
   return result;
+}
+
+std::string write_gloam_outputs(const GloamResult& r, const std::string& map_pcd, const std::string& trajectory,
+                                const std::string& report) {
+  std::string out;
+  if (!report.empty()) {
+    std::ofstream f(report);
+    f << r.report_json;
+    if (!f) throw Error(report + ": cannot write the report");
+    out += "wrote " + report + "\n";
+  }
+  if (!trajectory.empty()) {
+    const bool tum = trajectory.size() > 4 && trajectory.compare(trajectory.size() - 4, 4, ".tum") == 0;
+    write_trajectory(trajectory, r.poses, tum ? PoseFormat::Tum : PoseFormat::Kitti);
+    out += format("wrote %s: %zu LiDAR poses (%s), one per scan\n", trajectory.c_str(), r.poses.size(), r.source.c_str());
+  }
+  write_pcd(map_pcd, r.map.points, r.map.intensity, r.origin);
+  return out + format("wrote %s: %zu points from %zu scans at %.2f m voxels\n", map_pcd.c_str(), r.map.points.size(),
+                      r.merged_scans, r.voxel_m);
 }
 
 }  // namespace pl::maps

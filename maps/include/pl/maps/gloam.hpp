@@ -55,6 +55,7 @@ struct GloamResult {
   MapCloud map;                    // in the dataset's world frame (or the first scan's, see origin)
   std::optional<GeoPoint> origin;  // the map frame's geodetic origin; none in the first scan's frame
   std::size_t merged_scans = 0;
+  double voxel_m = 0;              // of the merge
   std::string source;              // "ground truth", "lidar odometry + GPS pose graph", ...
   std::string report_json;         // keyframes, GPS edges, loops, errors against ground truth, times
 };
@@ -64,5 +65,11 @@ struct GloamResult {
 // poses = GroundTruth, GPS fixes for gps). Checked before any scan is read.
 void check_gloam_config(const GloamConfig& cfg);
 GloamResult build_gloam_map(const Dataset& ds, const GloamConfig& cfg, const GloamObserver& observer = {});
+
+// Writes the report and the trajectory (KITTI, or TUM with the scan times when the name ends in
+// .tum) when their paths are not empty, then the map (PCD with its origin); returns a "wrote ..."
+// line for each.
+std::string write_gloam_outputs(const GloamResult& r, const std::string& map_pcd, const std::string& trajectory,
+                                const std::string& report);
 
 }  // namespace pl::maps
