@@ -72,22 +72,21 @@ void apply_settings(const std::string& text, pl::maps::LoamConfig& c) {
   }
 }
 
-int body(int argc, char** argv) {
-  pl::Args a(argc, argv, 1);
-  if (a.positional().size() != 1) throw pl::Error("usage: bench_loam DATASET_DIR [--frames N] [--every K] [--deskew auto|on|off] [--set name=value,...] [--traj-out FILE] [--timing FILE.csv]");
-  pl::Dataset ds = pl::open_dataset(a.positional()[0]);
-  const long long frames = a.get_int("--frames", static_cast<long long>(ds.size()));
-  const std::size_t every = static_cast<std::size_t>(std::max(1LL, a.get_int("--every", 1)));
+struct Options {
+  std::string dir, deskew = "auto", set, traj_out, timing_out;
+  long long frames = 0;
+  std::size_t every = 1;
+};
+
+int run(const Options& o) {
+  pl::Dataset ds = pl::open_dataset(o.dir);
+  const long long frames = o.frames > 0 ? o.frames : static_cast<long long>(ds.size());
+  const std::size_t every = o.every;
   pl::maps::LoamConfig cfg;
-  const std::string deskew = a.get_or("--deskew", "auto");
-  if (deskew != "auto" && deskew != "on" && deskew != "off") throw pl::Error("--deskew takes auto, on or off, not " + deskew);
   // As pl-map build: on for real recordings (no meta.json), off for pl-sim's undistorted scans.
-  cfg.deskew = deskew == "on" || (deskew == "auto" && !ds.has_meta_file);
+  cfg.deskew = o.deskew == "on" || (o.deskew == "auto" && !ds.has_meta_file);
   if (ds.meta.sensor.rate_hz > 0) cfg.scan_period_s = 1.0 / ds.meta.sensor.rate_hz;
-  if (auto set = a.get("--set")) apply_settings(*set, cfg);
-  auto traj_out = a.get("--traj-out");
-  auto timing_out = a.get("--timing");
-  a.finish();
+  if (!o.set.empty()) apply_settings(o.set, cfg);
   const std::size_t n_all = std::min<std::size_t>(ds.size(), static_cast<std::size_t>(std::max(0LL, frames)));
   if (n_all == 0) throw pl::Error(ds.dir + ": no scans");
   // The scans run: every `every`-th of the first n_all (a lower scan rate, for experiments).
@@ -145,19 +144,32 @@ int body(int argc, char** argv) {
                   1e3 * rel_t / static_cast<double>(n - 1), 1e3 * pl::median(rel), 1e3 * rel_t_max,
                   rel_r / static_cast<double>(n - 1) * 180.0 / M_PI);
   }
-  if (traj_out) {
-    pl::write_kitti_poses(*traj_out, est);
-    std::printf("  wrote %s (%zu poses, KITTI format)\n", traj_out->c_str(), est.size());
+  if (!o.traj_out.empty()) {
+    pl::write_kitti_poses(o.traj_out, est);
+    std::printf("  wrote %s (%zu poses, KITTI format)\n", o.traj_out.c_str(), est.size());
   }
-  if (timing_out) {
-    std::ofstream csv(*timing_out);
+  if (!o.timing_out.empty()) {
+    std::ofstream csv(o.timing_out);
     csv << "scan,ms,edges,planes,iterations\n";
     for (std::size_t i = 0; i < n; ++i) csv << i << ',' << ms[i] << ',' << feat_edges[i] << ',' << feat_planes[i] << ',' << iters[i] << '\n';
-    if (!csv) throw pl::Error(*timing_out + ": cannot write");
+    if (!csv) throw pl::Error(o.timing_out + ": cannot write");
   }
   return 0;
 }
 
 }  // namespace
 
-int main(int argc, char** argv) { return pl::run_cli("bench_loam", body, argc, argv); }
+int main(int argc, char** argv) {
+  pl::cli::Tool tool("bench_loam", "LOAM odometry alone over a drive: time a scan, and the drift against the ground truth.");
+  CLI::App& app = tool.app();
+  Options o;
+  app.add_option("DATASET_DIR", o.dir, "the drive")->required();
+  pl::cli::number(app, "--frames", o.frames, "the first N scans (0: all)", pl::cli::at_least(0));
+  pl::cli::number(app, "--every", o.every, "run every K-th scan only (a lower scan rate)", pl::cli::at_least(1));
+  pl::cli::choice(app, "--deskew", o.deskew, "auto: on for real recordings (no meta.json), off for pl-sim drives", {"auto", "on", "off"});
+  app.add_option("--set", o.set, "overrides of LoamConfig fields (pl/maps/loam.hpp) by name")->type_name("NAME=VALUE,...");
+  pl::cli::output_file(app, "--traj-out", o.traj_out, "one pose per scan run (KITTI format)");
+  pl::cli::output_file(app, "--timing", o.timing_out, "a CSV of each scan's time and matched features");
+  tool.body([&] { return run(o); });
+  return tool.main(argc, argv);
+}

@@ -82,7 +82,7 @@ rm -f "$d/gloam-maps.sqlite"*
 "$bin/pl-map" tile --cloud "$d/gloam-map.pcd" --db "$d/gloam-maps.sqlite" --map k00 >/dev/null
 "$bin/pl-map" publish --db "$d/gloam-maps.sqlite" --map k00 --version 1 >/dev/null
 for m in gt gloam; do
-  "$bin/pl-localize" --dataset "$d/e1" --db "$d/$m-maps.sqlite" --map k00 --lidar-beams 16 --odometry encoder --init gps \
+  "$bin/pl-localize" --dataset "$d/e1" --db "$d/$m-maps.sqlite" --map k00 --beams 16 --odometry encoder --init gps \
     --out "$d/localize-$m.tum" --kitti-out "$d/localize-$m.txt" >"$d/localize-$m.log"
   "$bin/pl-eval" ape --json --est "$d/localize-$m.txt" --gt "$d/e1/poses.txt" >"$d/localize-$m.json"
 done

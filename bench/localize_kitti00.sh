@@ -53,7 +53,7 @@ run() {  # name drive extra-flags...
   local name=$1 drive=$2
   shift 2
   rm -f "$work/$tag/cache-$name.sqlite"*
-  "$bin/pl-localize" --dataset "$work/$tag/$drive" --server "$url" --map k00 --lidar-beams 16 --odometry encoder \
+  "$bin/pl-localize" --dataset "$work/$tag/$drive" --server "$url" --map k00 --beams 16 --odometry encoder \
     --init gps --cache "$work/$tag/cache-$name.sqlite" "$@" \
     --out "$work/$tag/$name.tum" --kitti-out "$work/$tag/$name.txt" --timing "$work/$tag/$name.csv" >"$work/$tag/$name.log"
   "$bin/pl-eval" ape --json --est "$work/$tag/$name.txt" --gt "$work/$tag/$drive/poses.txt" >"$work/$tag/$name.json"

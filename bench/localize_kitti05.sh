@@ -45,10 +45,10 @@ fi
 # The whole product on the same protocol: pl-localize on the odd scans, pl-eval against their
 # ground truth (every second line of the drive's poses, from the second: frames 1, 3, 5, ...).
 echo
-echo "whole product: pl-localize --lidar-beams 16 --scans odd --odometry lidar --init gt, then pl-eval ape"
+echo "whole product: pl-localize --beams 16 --scans odd --odometry lidar --init gt, then pl-eval ape"
 "$bin/pl-dataset" poses "$drive" --out "$k05/gt.txt" >/dev/null
 awk 'NR % 2 == 0' "$k05/gt.txt" | head -n "${quick:-1000000}" >"$k05/gt_odd.txt"
 export PL_NO_PROGRESS=1
-"$bin/pl-localize" --dataset "$drive" --db "$k05/maps.sqlite" --map k05 --lidar-beams 16 --scans odd --odometry lidar \
+"$bin/pl-localize" --dataset "$drive" --db "$k05/maps.sqlite" --map k05 --beams 16 --scans odd --odometry lidar \
   --init gt ${quick:+--count "$quick"} --out "$k05/odd.tum" --kitti-out "$k05/odd.txt" --timing "$k05/odd_timing.csv"
 "$bin/pl-eval" ape --est "$k05/odd.txt" --gt "$k05/gt_odd.txt"

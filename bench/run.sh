@@ -12,6 +12,10 @@ echo "== bench_voxel: voxel grid vs pcl::VoxelGrid"
 if [[ -x "$bin/bench_voxel" ]]; then "$bin/bench_voxel" $scan; else echo "skipped: built without PCL (install libpcl-dev)"; fi
 
 echo
+echo "== bench_nearest: pl-eval map's nearest-neighbour queries vs nanoflann"
+"$bin/bench_nearest"
+
+echo
 echo "== bench_sim: simulated scans per second, one core"
 "$bin/bench_sim"
 

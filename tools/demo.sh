@@ -48,7 +48,7 @@ echo "manifest: $(curl -sf "$url/v1/maps/town")"
 
 step "pl-localize: 16 of 64 beams, wheel encoders, tiles streamed from $url"
 rm -f "$out/tiles-cache.sqlite"*
-"$bin/pl-localize" --dataset "$drive" --server "$url" --map town --lidar-beams 16 --odometry encoder \
+"$bin/pl-localize" --dataset "$drive" --server "$url" --map town --beams 16 --odometry encoder \
   --init gps --cache "$out/tiles-cache.sqlite" \
   --out "$out/poses.tum" --kitti-out "$out/poses.txt" --timing "$out/timing.csv" | tee "$out/localize.log"
 

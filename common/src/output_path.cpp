@@ -2,30 +2,96 @@
 
 #include <unistd.h>
 
-#include <cerrno>
-#include <cstdio>
-#include <cstring>
 #include <filesystem>
+#include <system_error>
 
 #include "pl/common/error.hpp"
 
 namespace pl {
 
-void check_output_path(const std::string& path, const std::string& flag) {
-  namespace fs = std::filesystem;
-  if (path.empty()) throw Error(flag + ": the output path is empty");
-  const fs::path p(path);
-  const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::file_type type_of(const fs::path& p) {
   std::error_code ec;
-  if (!fs::is_directory(dir, ec))
-    throw Error(flag + " " + path + ": the folder " + dir.string() + " does not exist (create it, or write somewhere else)");
-  if (fs::is_directory(p, ec)) throw Error(flag + " " + path + ": is a folder; give a file name");
-  const bool existed = fs::exists(p, ec);
-  // Opening for append creates nothing new when the file is there and leaves its bytes alone.
-  std::FILE* f = std::fopen(path.c_str(), "a");
-  if (!f) throw Error(flag + " " + path + ": cannot be written (" + std::strerror(errno) + ")");
-  std::fclose(f);
-  if (!existed) ::unlink(path.c_str());
+  return fs::status(p, ec).type();  // not_found also for a path through a file (ENOTDIR)
+}
+
+bool writable(const fs::path& p, bool folder) { return ::access(p.c_str(), folder ? (W_OK | X_OK) : W_OK) == 0; }
+
+// The problem with creating `p` (and its missing parents): the nearest existing ancestor must be a
+// writable folder.
+std::string creation_problem(const fs::path& p, const std::string& head) {
+  fs::path parent = p.parent_path();
+  if (parent.empty()) parent = ".";
+  fs::path existing = parent;
+  while (type_of(existing) == fs::file_type::not_found && existing.has_parent_path() && existing != existing.parent_path())
+    existing = existing.parent_path();
+  const fs::file_type t = type_of(existing);
+  if (t == fs::file_type::not_found)
+    return head + "the folder " + parent.string() + " does not exist (create it, or choose another path)";
+  if (t != fs::file_type::directory)
+    return head + existing.string() + " is a file, not a folder (choose a path in an existing folder)";
+  if (existing != parent)
+    return head + "the folder " + parent.string() + " does not exist (create it with mkdir -p " + parent.string() +
+           ", or choose another path)";
+  if (!writable(existing, true))
+    return head + "the folder " + existing.string() + " is not writable (choose another folder, or change its permissions)";
+  return "";
+}
+
+}  // namespace
+
+std::string output_file_problem(const std::string& path) {
+  if (path.empty()) return "cannot write an empty path: give a file name";
+  const std::string head = "cannot write " + path + ": ";
+  const fs::path p(path);
+  switch (type_of(p)) {
+    case fs::file_type::not_found:
+      return creation_problem(p, head);
+    case fs::file_type::directory:
+      return head + "it is a folder (give a file name, e.g. " + (p / "out").string() + ")";
+    default:
+      if (!writable(p, false)) return head + "the file is not writable (choose another path, or change its permissions)";
+      return "";
+  }
+}
+
+std::string output_folder_problem(const std::string& path) {
+  if (path.empty()) return "cannot write an empty path: give a folder name";
+  const std::string head = "cannot write " + path + ": ";
+  const fs::path p(path);
+  switch (type_of(p)) {
+    case fs::file_type::not_found: {
+      // The tool creates the folder with its parents: the nearest existing ancestor must be a folder.
+      fs::path existing = p;
+      while (type_of(existing) == fs::file_type::not_found && existing.has_parent_path() && existing != existing.parent_path())
+        existing = existing.parent_path();
+      const fs::file_type t = type_of(existing);
+      if (t == fs::file_type::not_found) return "";  // a relative path whose first part is created here
+      if (t != fs::file_type::directory)
+        return head + existing.string() + " is a file, not a folder (choose a path in an existing folder)";
+      if (!writable(existing, true))
+        return head + "the folder " + existing.string() + " is not writable (choose another folder, or change its permissions)";
+      return "";
+    }
+    case fs::file_type::directory:
+      if (!writable(p, true)) return head + "the folder is not writable (choose another folder, or change its permissions)";
+      return "";
+    default:
+      return head + "it is a file, not a folder (remove it, or choose another path)";
+  }
+}
+
+void check_output_file(const std::string& path) {
+  const std::string problem = output_file_problem(path);
+  if (!problem.empty()) throw Error(problem);
+}
+
+void check_output_folder(const std::string& path) {
+  const std::string problem = output_folder_problem(path);
+  if (!problem.empty()) throw Error(problem);
 }
 
 }  // namespace pl

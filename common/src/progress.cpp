@@ -37,4 +37,18 @@ void Progress::finish() {
   std::fflush(stderr);
 }
 
+void StageProgress::update(const std::string& stage, std::size_t done, std::size_t total) {
+  if (!bar_ || stage != stage_) {
+    finish();
+    stage_ = stage;
+    bar_ = std::make_unique<Progress>(stage, total);
+  }
+  bar_->update(done);
+}
+
+void StageProgress::finish() {
+  if (bar_) bar_->finish();
+  bar_.reset();
+}
+
 }  // namespace pl

@@ -12,6 +12,7 @@
 #include <memory>
 
 #include "pl/common/error.hpp"
+#include "pl/common/stats.hpp"
 
 namespace pl::maps {
 namespace {
@@ -138,9 +139,7 @@ Pose align_to_gps(const std::vector<Node>& nodes, const std::vector<GpsOnKeyfram
     if (pass == 1) break;
     std::vector<double> res(gps.size());
     for (std::size_t j = 0; j < gps.size(); ++j) res[j] = (a * from[j] - gps[j].world).norm();
-    std::vector<double> sorted = res;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
-    const double keep = std::max(3.0 * sorted[sorted.size() / 2], 0.5);
+    const double keep = std::max(3.0 * median(res), 0.5);
     for (std::size_t j = 0; j < gps.size(); ++j)
       if (res[j] > keep) w[j] = 0;
   }

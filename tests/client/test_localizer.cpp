@@ -194,7 +194,7 @@ TEST(PlLocalize, OverHttpWithSixteenBeamsAndEncoders) {
   std::filesystem::copy_file(data + "/maps.sqlite", dir / "maps.sqlite");
   pl::test::ServerProcess server(dir / "maps.sqlite");
   const auto r = pl::test::run(pl::test::tool("pl-localize") + " --dataset " + data + "/drive --server " + server.url() +
-                               " --map town --lidar-beams 16 --odometry encoder --init gps --cache " + (dir / "cache.sqlite") +
+                               " --map town --beams 16 --odometry encoder --init gps --cache " + (dir / "cache.sqlite") +
                                " --out " + (dir / "poses.tum") + " --kitti-out " + (dir / "poses.txt") + " --timing " +
                                (dir / "timing.csv"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -216,7 +216,7 @@ TEST(PlLocalize, ServerKilledMidDriveLocalizationContinuesOnTheCache) {
   std::filesystem::copy_file(data + "/maps.sqlite", dir / "maps.sqlite");
   auto server = std::make_unique<pl::test::ServerProcess>(dir / "maps.sqlite");
   const std::string cmd = pl::test::tool("pl-localize") + " --dataset " + data + "/drive --server " + server->url() +
-                          " --map town --lidar-beams 16 --init gps --realtime --cache " + (dir / "cache.sqlite") +
+                          " --map town --beams 16 --init gps --realtime --cache " + (dir / "cache.sqlite") +
                           " --out " + (dir / "poses.tum") + " --kitti-out " + (dir / "poses.txt") + " > " + (dir / "out.txt");
   std::thread drive([&] { pl::test::run(cmd); });
   // The drive lasts 6 s in real time: the server dies 2 s in.
@@ -231,7 +231,7 @@ TEST(PlLocalize, ServerKilledMidDriveLocalizationContinuesOnTheCache) {
   EXPECT_LT(e["mean"].get<double>(), 0.05) << e.dump();
   // With the server gone, a second drive starts from the disk cache alone.
   const auto again = pl::test::run(pl::test::tool("pl-localize") + " --dataset " + data + "/drive --server " + server->url() +
-                                   " --map town --lidar-beams 16 --init gps --count 20 --cache " + (dir / "cache.sqlite") +
+                                   " --map town --beams 16 --init gps --count 20 --cache " + (dir / "cache.sqlite") +
                                    " --out " + (dir / "again.tum") + " --kitti-out " + (dir / "again.txt"));
   ASSERT_EQ(again.exit_code, 0) << again.output;
   EXPECT_NE(again.output.find("0 lost"), std::string::npos) << again.output;

@@ -257,6 +257,24 @@ TEST(Dataset, PlDatasetInfoReportsAndFailsClearly) {
   EXPECT_NE(typo.output.find("--out"), std::string::npos) << typo.output;
 }
 
+// pl-dataset scans checks --timing before it reads a scan: a path under a regular file or in a
+// missing folder fails at once, naming the path.
+TEST(Dataset, ScansChecksTheTimingPathBeforeTheWork) {
+  TempDir dir;
+  write_raw_drive(dir / "drive", 5);
+  write_file(dir / "file.txt", "a regular file\n");
+  const std::string tool = pl::test::tool("pl-dataset") + " scans " + (dir / "drive") + " --timing ";
+  for (const std::string& path : {dir / "file.txt/t.csv", dir / "no/such/t.csv"}) {
+    auto r = pl::test::run(tool + path);
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find("cannot write " + path), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("prepared"), std::string::npos) << r.output;
+  }
+  auto ok = pl::test::run(tool + (dir / "t.csv"));
+  ASSERT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_NE(ok.output.find("prepared 5 scans"), std::string::npos) << ok.output;
+}
+
 TEST(Dataset, GpsCsvBesideARawDriveReplacesTheOxtsFixes) {
   TempDir dir;
   write_raw_drive(dir.path(), 20);
@@ -381,8 +399,8 @@ TEST(Dataset, DegradeGpsRejectsBadInputClearly) {
       {" --out " + (dir / "drive"), "the source folder itself"},
       {" --out " + (dir / "taken"), "not an earlier degrade-gps output"},
       {" --out " + (dir / "linked"), "not an earlier degrade-gps output"},
-      {"", "missing --out"},
-      {" --out " + (dir / "c") + " --sigmaa 2", "unknown option --sigmaa"},
+      {"", "--out is required"},
+      {" --out " + (dir / "c") + " --sigmaa 2", "--sigmaa"},
   };
   for (const auto& [args, expected] : cases) {
     auto r = pl::test::run(tool + args);

@@ -177,3 +177,77 @@ TEST(Maps, TileRefusesEveryCrashingCloudTheFuzzersFound) {
   }
   EXPECT_GE(files, 5);
 }
+
+// A failed import changes nothing: into a new --db path it leaves no file (also when the failure
+// comes after the store was created: an invalid map name is refused by create_map); into an
+// existing store it leaves no new map and no new version.
+TEST(Maps, FailedImportLeavesNoStoreMapOrVersion) {
+  TempDir dir;
+  pl::write_pcd(dir / "empty.pcd", {}, {}, pl::GeoPoint{49.0, 8.4, 100.0});
+  pl::Points3d pts;
+  for (double x = 0.1; x < 30; x += 0.4)
+    for (double y = 0.1; y < 30; y += 0.4) pts.emplace_back(x, y, 0.0);
+  pl::write_pcd(dir / "a.pcd", pts, {}, pl::GeoPoint{49.0, 8.4, 100.0});
+  pl::test::write_file(dir / "garbage.pcd", "not a point cloud\n");
+  const std::string fresh = dir / "fresh.sqlite";
+  struct Case {
+    std::string args, expected;
+  };
+  const std::vector<Case> failing = {
+      {"--cloud " + (dir / "empty.pcd") + " --map m", "empty.pcd: no points"},
+      {"--cloud " + (dir / "missing.pcd") + " --map m", "missing.pcd"},
+      {"--cloud " + (dir / "garbage.pcd") + " --map m", "garbage.pcd"},
+      {"--cloud " + (dir / "a.pcd") + " --map 'bad name!'", "invalid map name"},
+  };
+  for (const auto& c : failing) {
+    auto r = pl::test::run(pl_map("tile " + c.args + " --db " + fresh));
+    EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.output;
+    EXPECT_NE(r.output.find(c.expected), std::string::npos) << c.args << "\n" << r.output;
+    EXPECT_FALSE(std::filesystem::exists(fresh)) << c.args;
+    EXPECT_FALSE(std::filesystem::exists(fresh + "-wal")) << c.args;
+  }
+  // An existing store with one map of one version: the same failures add nothing to it.
+  const std::string db = dir / "maps.sqlite";
+  ASSERT_EQ(pl::test::run(pl_map("tile --cloud " + (dir / "a.pcd") + " --db " + db + " --map m")).exit_code, 0);
+  for (const auto& c : failing) {
+    for (const std::string map : {"m", "n"}) {
+      std::string args = c.args;
+      if (c.expected != "invalid map name") args.replace(args.rfind(" --map m"), 8, " --map " + map);
+      auto r = pl::test::run(pl_map("tile " + args + " --db " + db));
+      EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+      auto store = pl::store::Store::open(db, false);
+      ASSERT_EQ(store.list_maps().size(), 1u) << args;
+      EXPECT_EQ(store.list_versions("m").size(), 1u) << args;
+    }
+  }
+}
+
+// Output paths are checked before the work: a path under a regular file (root may write anywhere
+// else) or in a folder that does not exist fails at once, naming the path and the fix, and the
+// drive is not even read.
+TEST(Maps, UnwritableOutputsFailBeforeTheWork) {
+  TempDir dir;
+  auto sim = pl::test::run(pl::test::tool("pl-sim") + " --route loop --frames 3 --lidar vlp16 --out " + (dir / "drive"));
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  pl::test::write_file(dir / "file.txt", "a regular file\n");
+  const std::string under_file = dir / "file.txt/map.pcd", no_dir = dir / "no/such/folder/map.pcd";
+  const std::string build = "build --dataset " + (dir / "drive") + " --poses lidar ";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {build + "--out " + under_file, under_file},
+      {build + "--out " + no_dir, no_dir},
+      {build + "--out " + (dir / "ok.pcd") + " --traj-out " + under_file, under_file},
+      {build + "--out " + (dir / "ok.pcd") + " --report " + no_dir, no_dir},
+      {"tile --cloud " + (dir / "ok.pcd") + " --map m --db " + under_file, under_file},
+  };
+  for (const auto& [args, path] : cases) {
+    auto r = pl::test::run(pl_map(args));
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+    EXPECT_NE(r.output.find("cannot write " + path), std::string::npos) << args << "\n" << r.output;
+    EXPECT_EQ(r.output.find("lidar odometry"), std::string::npos) << args << "\n" << r.output;  // no work was done
+    EXPECT_FALSE(std::filesystem::exists(dir / "ok.pcd"));
+  }
+  auto r = pl::test::run(pl_map(build + "--out " + under_file));
+  EXPECT_NE(r.output.find(dir / "file.txt is a file, not a folder"), std::string::npos) << r.output;
+  r = pl::test::run(pl_map(build + "--out " + no_dir));
+  EXPECT_NE(r.output.find("the folder " + (dir / "no/such/folder") + " does not exist"), std::string::npos) << r.output;
+}

@@ -1,14 +1,20 @@
-// Output files are checked before a long job starts: a typo in a path must fail at once, not after
-// the whole drive has been processed (and its results lost).
+// Checks that an output can be written, made before a long job starts: a path under a missing folder
+// or under a file fails at once, not after hours of work.
 #pragma once
 
 #include <string>
 
 namespace pl {
 
-// Throws pl::Error naming `flag`, the path and the fix when `path` cannot be written: its folder
-// does not exist or is not a folder, the path is a folder, or a file cannot be created there.
-// Creates nothing that was not there (a probe file is removed again).
-void check_output_path(const std::string& path, const std::string& flag);
+// What stops a file from being written at `path`, or "" when nothing does: the path is a folder,
+// its folder is missing (or is a file), or the file or its folder is not writable. The text starts
+// with "cannot write PATH: " and ends with the fix.
+std::string output_file_problem(const std::string& path);
+// The same for a folder a tool creates (with its missing parents) or writes into.
+std::string output_folder_problem(const std::string& path);
+
+// Throw pl::Error with the text above.
+void check_output_file(const std::string& path);
+void check_output_folder(const std::string& path);
 
 }  // namespace pl

@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <cstddef>
+#include <memory>
 #include <string>
 
 namespace pl {
@@ -21,6 +22,18 @@ class Progress {
   bool active_;
   bool finished_ = false;
   std::chrono::steady_clock::time_point start_, last_draw_;
+};
+
+// The bars of a job of several stages, fed by a library's progress(stage, done, total) callback: a
+// new bar each time the stage changes; finish() (or the destructor) ends the last one.
+class StageProgress {
+ public:
+  void update(const std::string& stage, std::size_t done, std::size_t total);
+  void finish();
+
+ private:
+  std::string stage_;
+  std::unique_ptr<Progress> bar_;
 };
 
 }  // namespace pl

@@ -1,15 +1,17 @@
-// The pl-eval command line: `pl-eval ape|kitti|timing|map|topview ...`. Kept in the library so that tests can
-// run it in-process; tools/eval/pl-eval.cpp only wraps it in pl::run_cli.
+// The pl-eval command line: `pl-eval ape|kitti|timing|map|topview ...` over CLI11. Kept in the
+// library so that tests can run it in-process; tools/eval/pl-eval.cpp only calls eval_main.
 #pragma once
 
 #include <ostream>
-#include <string>
+
+#include "pl/common/cli.hpp"
 
 namespace pl::eval {
 
-std::string usage();
-// Runs pl-eval with argv[1..] (argv[0] is the program). Returns the exit code; bad input throws
-// pl::Error (pl::run_cli turns it into "pl-eval: error: ..." and exit code 2).
+// Adds the commands ape, kitti, timing, map and topview to a pl-eval tool; their output goes to `out`.
+void add_commands(cli::Tool& tool, std::ostream& out);
+// Runs pl-eval with argv (argv[0] is the program) and returns the exit code: 0, or 2 for bad
+// input, printed on stderr as "pl-eval: error: ..." (pl::cli::Tool::main).
 int eval_main(int argc, char** argv, std::ostream& out);
 int eval_main(int argc, char** argv);  // writes to std::cout
 

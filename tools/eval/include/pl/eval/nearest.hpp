@@ -2,6 +2,20 @@
 // widest axis, with small leaf buckets and each node's bounding box of its points, so that queries
 // far from the points (a map point metres off the reference) stay fast. For map-to-reference
 // distances (pl-eval map).
+//
+// Why not nanoflann (Debian libnanoflann-dev 1.4.3): bench/bench_nearest.cpp runs both on the same
+// points and queries (a 1M-point street sampled every 0.1 m, 200k map points with 2 cm noise and 2 %
+// up to 3 m off; both give the same answers), one thread, Release, interleaved. Time of ours /
+// nanoflann's, nanoflann's leaf size 10 (its default) | 12 (ours) | 20:
+//   nearest (map -> reference)          0.63 | 0.68 | 0.71
+//   nearest other than itself (spacing) 0.67 | 0.68 | 0.90
+//   radius search (the plane fit)       0.58 | 0.63 | 0.70
+//   any within 0.5 m (coverage)         0.92 | 0.97 | 1.10
+//   building the index                  1.59 | 1.65 | 1.92   (170 ms against 107 ms for 1M points)
+// pl-eval map builds two indexes and then runs a query of each kind per point of both clouds, so
+// the queries dominate and this tree is the faster one overall: it is kept. (Each node's bounding
+// box, tested first, prunes more than nanoflann's split-plane distances for queries off the points.)
+// Rerun bench_nearest after changing either side.
 #pragma once
 
 #include <Eigen/Core>

@@ -1,0 +1,135 @@
+#include "pl/dataset/info.hpp"
+
+#include <algorithm>
+#include <cstdarg>
+#include <cstdio>
+#include <map>
+
+#include "median.hpp"
+#include "pl/common/error.hpp"
+#include "pl/common/geo.hpp"
+#include "pl/common/scan.hpp"
+#include "pl/common/voxel.hpp"
+
+namespace pl::dataset {
+
+namespace {
+
+void append(std::string& out, const char* fmt, ...) __attribute__((format(printf, 2, 3)));
+void append(std::string& out, const char* fmt, ...) {
+  char buf[1024];
+  va_list args;
+  va_start(args, fmt);
+  std::vsnprintf(buf, sizeof buf, fmt, args);
+  va_end(args);
+  out += buf;
+}
+
+}  // namespace
+
+nlohmann::json dataset_info(const Dataset& ds, const InfoConfig& cfg, const std::function<void(std::size_t, std::size_t)>& progress) {
+  if (cfg.sample < 1) throw Error("--sample must be at least 1");
+  nlohmann::json j;
+  j["dir"] = ds.dir;
+  j["layout"] = ds.layout_name();
+  j["scans"] = ds.size();
+  j["first_frame"] = ds.frame_ids.front();
+  j["last_frame"] = ds.frame_ids.back();
+  const double duration = ds.times.back() - ds.times.front();
+  j["duration_s"] = duration;
+  // Frames may be a sample of a longer drive (e.g. KITTI 00 frames 0-9, 94, 95, ...): rate from frame numbers.
+  j["rate_hz"] = ds.size() > 1 && duration > 0 ? static_cast<double>(ds.frame_ids.back() - ds.frame_ids.front()) / duration : 0.0;
+
+  // Per-scan figures from evenly spaced scans.
+  const std::size_t count = std::min<std::size_t>(ds.size(), cfg.sample);
+  std::vector<double> points, rings, kept16, voxel02;
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::size_t i = count == 1 ? 0 : k * (ds.size() - 1) / (count - 1);
+    const Scan scan = ds.load_scan(i);
+    const auto r = ds.rings(scan);
+    points.push_back(static_cast<double>(scan.size()));
+    rings.push_back(r.empty() ? 0.0 : 1.0 + *std::max_element(r.begin(), r.end()));
+    const int every = std::max(1, ds.meta.sensor.beams / 16);
+    if (!scan.empty()) {
+      kept16.push_back(static_cast<double>(keep_every_kth_ring(scan, r, every).size()) / static_cast<double>(scan.size()));
+      voxel02.push_back(static_cast<double>(voxel_downsample(scan, 0.2).size()));
+    }
+    if (progress) progress(k + 1, count);
+  }
+  j["sampled_scans"] = count;
+  j["points_per_scan"] = {{"min", *std::min_element(points.begin(), points.end())},
+                          {"median", median_of(points)},
+                          {"max", *std::max_element(points.begin(), points.end())}};
+  j["beams"] = {{"sensor", ds.meta.sensor.model},
+                {"table", ds.meta.sensor.beams},
+                {"rings_found_median", median_of(rings)},
+                {"rings_found_min", *std::min_element(rings.begin(), rings.end())},
+                {"rings_found_max", *std::max_element(rings.begin(), rings.end())},
+                {"ring_method", ds.meta.sensor.point_order == "laser-by-laser" ? "azimuth wrap" : "vertical angle table"},
+                {"sixteen_beam_share_median", median_of(kept16)},
+                {"voxel_0.2m_points_median", median_of(voxel02)}};
+
+  if (ds.has_ground_truth()) {
+    double length = 0;
+    for (std::size_t i = 1; i < ds.ground_truth.size(); ++i)
+      length += (ds.ground_truth.poses[i].translation() - ds.ground_truth.poses[i - 1].translation()).norm();
+    j["ground_truth"] = {{"poses", ds.ground_truth.size()}, {"path_length_m", length}};
+  } else {
+    j["ground_truth"] = nullptr;
+  }
+  if (!ds.gps.empty()) {
+    std::map<std::string, std::size_t> mix;
+    std::vector<double> stds;
+    for (const auto& f : ds.gps) {
+      ++mix[gps_status_name(f.status)];
+      stds.push_back(f.std_m);
+    }
+    j["gps"] = {{"fixes", ds.gps.size()}, {"status", mix}, {"std_m_median", median_of(stds)}};
+  } else {
+    j["gps"] = nullptr;
+  }
+  j["encoder_samples"] = ds.encoder.size();
+  j["odometry_samples"] = ds.odometry.size();
+  j["sidecars"] = ds.sidecars;
+  if (ds.meta.origin) j["origin"] = {{"lat", ds.meta.origin->lat_deg}, {"lon", ds.meta.origin->lon_deg}, {"alt", ds.meta.origin->alt_m}};
+  return j;
+}
+
+std::string dataset_info_text(const Dataset& ds, const nlohmann::json& j) {
+  const auto& pts = j["points_per_scan"];
+  const auto& beams = j["beams"];
+  std::string out;
+  append(out, "dataset        %s\n", ds.dir.c_str());
+  append(out, "layout         %s\n", ds.layout_name());
+  append(out, "scans          %zu (frames %ld..%ld), %.1f s at %.2f Hz\n", ds.size(), ds.frame_ids.front(), ds.frame_ids.back(),
+         j["duration_s"].get<double>(), j["rate_hz"].get<double>());
+  append(out, "points/scan    min %.0f, median %.0f, max %.0f (%zu scans read)\n", pts["min"].get<double>(), pts["median"].get<double>(),
+         pts["max"].get<double>(), j["sampled_scans"].get<std::size_t>());
+  append(out, "beams          %s, %d in the table; rings found per scan: median %.0f (min %.0f, max %.0f) by %s\n",
+         ds.meta.sensor.model.c_str(), ds.meta.sensor.beams, beams["rings_found_median"].get<double>(),
+         beams["rings_found_min"].get<double>(), beams["rings_found_max"].get<double>(), beams["ring_method"].get<std::string>().c_str());
+  append(out, "16 beams       keep %.1f %% of the points; 0.2 m voxels leave %.0f points a scan (medians)\n",
+         100.0 * beams["sixteen_beam_share_median"].get<double>(), beams["voxel_0.2m_points_median"].get<double>());
+  if (ds.has_ground_truth())
+    append(out, "ground truth   %zu poses, path length %.1f m\n", ds.ground_truth.size(), j["ground_truth"]["path_length_m"].get<double>());
+  else
+    append(out, "ground truth   none (no poses.txt)\n");
+  if (!ds.gps.empty()) {
+    append(out, "gps            %zu fixes, median std %.3f m:", ds.gps.size(), j["gps"]["std_m_median"].get<double>());
+    for (const auto& [name, n] : j["gps"]["status"].items())
+      append(out, " %s %.1f %%", name.c_str(), 100.0 * n.get<double>() / static_cast<double>(ds.gps.size()));
+    append(out, "\n");
+  } else {
+    append(out, "gps            none\n");
+  }
+  if (!ds.encoder.empty()) append(out, "encoder        %zu samples\n", ds.encoder.size());
+  if (!ds.odometry.empty()) append(out, "odometry       %zu samples\n", ds.odometry.size());
+  std::string side;
+  for (const auto& s : ds.sidecars) side += (side.empty() ? "" : ", ") + s;
+  append(out, "sidecars       %s\n", side.empty() ? "none" : side.c_str());
+  if (ds.meta.origin)
+    append(out, "origin         lat %.9f, lon %.9f, alt %.3f m\n", ds.meta.origin->lat_deg, ds.meta.origin->lon_deg, ds.meta.origin->alt_m);
+  return out;
+}
+
+}  // namespace pl::dataset
