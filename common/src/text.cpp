@@ -1,6 +1,8 @@
 #include "pl/common/text.hpp"
 
 #include <cerrno>
+#include <cstdarg>
+#include <cstdio>
 #include <cmath>
 #include <charconv>
 #include <cstdlib>
@@ -140,6 +142,15 @@ bool file_exists(const std::string& path) {
 bool dir_exists(const std::string& path) {
   struct stat st {};
   return ::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+void append_format(std::string& out, const char* fmt, ...) {
+  char buf[1024];
+  va_list args;
+  va_start(args, fmt);
+  std::vsnprintf(buf, sizeof buf, fmt, args);
+  va_end(args);
+  out += buf;
 }
 
 }  // namespace pl

@@ -7,20 +7,12 @@
 #include <map>
 
 #include "pl/common/error.hpp"
+#include "pl/common/text.hpp"
 
 namespace pl::maps {
 
 namespace {
 
-void append(std::string& out, const char* fmt, ...) __attribute__((format(printf, 2, 3)));
-void append(std::string& out, const char* fmt, ...) {
-  char buf[1024];
-  va_list args;
-  va_start(args, fmt);
-  std::vsnprintf(buf, sizeof buf, fmt, args);
-  va_end(args);
-  out += buf;
-}
 
 std::map<TileKey, std::string> tile_hashes(const store::Store& s, const std::string& map, std::int64_t version) {
   std::map<TileKey, std::string> out;
@@ -45,9 +37,9 @@ store::MapInfo need_map(const store::Store& s, const std::string& name) {
 std::string maps_text(const store::Store& s) {
   std::string out;
   const auto maps = s.list_maps();
-  if (maps.empty()) append(out, "no maps in %s\n", s.path().c_str());
+  if (maps.empty()) append_format(out, "no maps in %s\n", s.path().c_str());
   for (const auto& m : maps)
-    append(out, "%-24s current %s, tile %.1f m, voxel %.2f m, origin %.7f %.7f %.2f\n", m.name.c_str(),
+    append_format(out, "%-24s current %s, tile %.1f m, voxel %.2f m, origin %.7f %.7f %.2f\n", m.name.c_str(),
            m.current ? ("v" + std::to_string(*m.current)).c_str() : "none", m.tile_size, m.voxel_size, m.origin.lat_deg,
            m.origin.lon_deg, m.origin.alt_m);
   return out;
@@ -56,9 +48,9 @@ std::string maps_text(const store::Store& s) {
 std::string versions_text(const store::Store& s, const std::string& map) {
   const auto m = need_map(s, map);
   std::string out;
-  append(out, "map %s (tile %.1f m, voxel %.2f m)\n", m.name.c_str(), m.tile_size, m.voxel_size);
+  append_format(out, "map %s (tile %.1f m, voxel %.2f m)\n", m.name.c_str(), m.tile_size, m.voxel_size);
   for (const auto& v : s.list_versions(map))
-    append(out, "  %s v%-4lld %-9s %6lld tiles %10lld points %10s  %s%s%s\n", m.current && *m.current == v.number ? "*" : " ",
+    append_format(out, "  %s v%-4lld %-9s %6lld tiles %10lld points %10s  %s%s%s\n", m.current && *m.current == v.number ? "*" : " ",
            static_cast<long long>(v.number), store::state_name(v.state), static_cast<long long>(v.tiles),
            static_cast<long long>(v.points), megabytes(static_cast<double>(v.bytes)).c_str(), v.created.c_str(),
            v.note.empty() ? "" : "  ", v.note.c_str());
@@ -80,15 +72,15 @@ std::string version_text(const store::Store& s, const std::string& map, std::int
   const double area_km2 = static_cast<double>(tiles.size()) * m.tile_size * m.tile_size / 1e6;
   const auto number = static_cast<long long>(version);
   std::string out;
-  append(out, "map          %s\n", m.name.c_str());
-  append(out, "version      %lld (%s)%s, created %s\n", number, store::state_name(v->state),
+  append_format(out, "map          %s\n", m.name.c_str());
+  append_format(out, "version      %lld (%s)%s, created %s\n", number, store::state_name(v->state),
          m.current && *m.current == version ? ", current" : "", v->created.c_str());
-  append(out, "origin       lat %.9f, lon %.9f, alt %.3f m\n", m.origin.lat_deg, m.origin.lon_deg, m.origin.alt_m);
-  append(out, "grid         %.1f m tiles, %.2f m voxels\n", m.tile_size, m.voxel_size);
-  append(out, "tiles        %zu covering %.4f km2, %lld points, %s (%.1f MB per km2 of tiles)\n", tiles.size(), area_km2,
+  append_format(out, "origin       lat %.9f, lon %.9f, alt %.3f m\n", m.origin.lat_deg, m.origin.lon_deg, m.origin.alt_m);
+  append_format(out, "grid         %.1f m tiles, %.2f m voxels\n", m.tile_size, m.voxel_size);
+  append_format(out, "tiles        %zu covering %.4f km2, %lld points, %s (%.1f MB per km2 of tiles)\n", tiles.size(), area_km2,
          static_cast<long long>(v->points), megabytes(static_cast<double>(v->bytes)).c_str(),
          area_km2 > 0 ? static_cast<double>(v->bytes) / 1e6 / area_km2 : 0.0);
-  if (!tiles.empty()) append(out, "bounds       x %.1f .. %.1f, y %.1f .. %.1f m\n", lo_x, hi_x, lo_y, hi_y);
+  if (!tiles.empty()) append_format(out, "bounds       x %.1f .. %.1f, y %.1f .. %.1f m\n", lo_x, hi_x, lo_y, hi_y);
   return out;
 }
 
@@ -102,10 +94,10 @@ VersionDiff diff_versions(const store::Store& s, const std::string& map, std::in
     const auto it = a.find(k);
     if (it == a.end()) {
       ++d.added;
-      append(d.text, "+ %d %d\n", k.tx, k.ty);
+      append_format(d.text, "+ %d %d\n", k.tx, k.ty);
     } else if (it->second != h) {
       ++d.changed;
-      append(d.text, "~ %d %d\n", k.tx, k.ty);
+      append_format(d.text, "~ %d %d\n", k.tx, k.ty);
     } else {
       ++d.unchanged;
     }
@@ -113,9 +105,9 @@ VersionDiff diff_versions(const store::Store& s, const std::string& map, std::in
   for (const auto& [k, h] : a)
     if (!b.count(k)) {
       ++d.removed;
-      append(d.text, "- %d %d\n", k.tx, k.ty);
+      append_format(d.text, "- %d %d\n", k.tx, k.ty);
     }
-  append(d.text, "v%lld -> v%lld: %zu added, %zu removed, %zu changed, %zu unchanged\n", static_cast<long long>(from),
+  append_format(d.text, "v%lld -> v%lld: %zu added, %zu removed, %zu changed, %zu unchanged\n", static_cast<long long>(from),
          static_cast<long long>(to), d.added, d.removed, d.changed, d.unchanged);
   return d;
 }

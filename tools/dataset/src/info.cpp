@@ -7,6 +7,7 @@
 
 #include "median.hpp"
 #include "pl/common/error.hpp"
+#include "pl/common/text.hpp"
 #include "pl/common/geo.hpp"
 #include "pl/common/scan.hpp"
 #include "pl/common/voxel.hpp"
@@ -15,15 +16,6 @@ namespace pl::dataset {
 
 namespace {
 
-void append(std::string& out, const char* fmt, ...) __attribute__((format(printf, 2, 3)));
-void append(std::string& out, const char* fmt, ...) {
-  char buf[1024];
-  va_list args;
-  va_start(args, fmt);
-  std::vsnprintf(buf, sizeof buf, fmt, args);
-  va_end(args);
-  out += buf;
-}
 
 }  // namespace
 
@@ -99,36 +91,36 @@ std::string dataset_info_text(const Dataset& ds, const nlohmann::json& j) {
   const auto& pts = j["points_per_scan"];
   const auto& beams = j["beams"];
   std::string out;
-  append(out, "dataset        %s\n", ds.dir.c_str());
-  append(out, "layout         %s\n", ds.layout_name());
-  append(out, "scans          %zu (frames %ld..%ld), %.1f s at %.2f Hz\n", ds.size(), ds.frame_ids.front(), ds.frame_ids.back(),
+  append_format(out, "dataset        %s\n", ds.dir.c_str());
+  append_format(out, "layout         %s\n", ds.layout_name());
+  append_format(out, "scans          %zu (frames %ld..%ld), %.1f s at %.2f Hz\n", ds.size(), ds.frame_ids.front(), ds.frame_ids.back(),
          j["duration_s"].get<double>(), j["rate_hz"].get<double>());
-  append(out, "points/scan    min %.0f, median %.0f, max %.0f (%zu scans read)\n", pts["min"].get<double>(), pts["median"].get<double>(),
+  append_format(out, "points/scan    min %.0f, median %.0f, max %.0f (%zu scans read)\n", pts["min"].get<double>(), pts["median"].get<double>(),
          pts["max"].get<double>(), j["sampled_scans"].get<std::size_t>());
-  append(out, "beams          %s, %d in the table; rings found per scan: median %.0f (min %.0f, max %.0f) by %s\n",
+  append_format(out, "beams          %s, %d in the table; rings found per scan: median %.0f (min %.0f, max %.0f) by %s\n",
          ds.meta.sensor.model.c_str(), ds.meta.sensor.beams, beams["rings_found_median"].get<double>(),
          beams["rings_found_min"].get<double>(), beams["rings_found_max"].get<double>(), beams["ring_method"].get<std::string>().c_str());
-  append(out, "16 beams       keep %.1f %% of the points; 0.2 m voxels leave %.0f points a scan (medians)\n",
+  append_format(out, "16 beams       keep %.1f %% of the points; 0.2 m voxels leave %.0f points a scan (medians)\n",
          100.0 * beams["sixteen_beam_share_median"].get<double>(), beams["voxel_0.2m_points_median"].get<double>());
   if (ds.has_ground_truth())
-    append(out, "ground truth   %zu poses, path length %.1f m\n", ds.ground_truth.size(), j["ground_truth"]["path_length_m"].get<double>());
+    append_format(out, "ground truth   %zu poses, path length %.1f m\n", ds.ground_truth.size(), j["ground_truth"]["path_length_m"].get<double>());
   else
-    append(out, "ground truth   none (no poses.txt)\n");
+    append_format(out, "ground truth   none (no poses.txt)\n");
   if (!ds.gps.empty()) {
-    append(out, "gps            %zu fixes, median std %.3f m:", ds.gps.size(), j["gps"]["std_m_median"].get<double>());
+    append_format(out, "gps            %zu fixes, median std %.3f m:", ds.gps.size(), j["gps"]["std_m_median"].get<double>());
     for (const auto& [name, n] : j["gps"]["status"].items())
-      append(out, " %s %.1f %%", name.c_str(), 100.0 * n.get<double>() / static_cast<double>(ds.gps.size()));
-    append(out, "\n");
+      append_format(out, " %s %.1f %%", name.c_str(), 100.0 * n.get<double>() / static_cast<double>(ds.gps.size()));
+    append_format(out, "\n");
   } else {
-    append(out, "gps            none\n");
+    append_format(out, "gps            none\n");
   }
-  if (!ds.encoder.empty()) append(out, "encoder        %zu samples\n", ds.encoder.size());
-  if (!ds.odometry.empty()) append(out, "odometry       %zu samples\n", ds.odometry.size());
+  if (!ds.encoder.empty()) append_format(out, "encoder        %zu samples\n", ds.encoder.size());
+  if (!ds.odometry.empty()) append_format(out, "odometry       %zu samples\n", ds.odometry.size());
   std::string side;
   for (const auto& s : ds.sidecars) side += (side.empty() ? "" : ", ") + s;
-  append(out, "sidecars       %s\n", side.empty() ? "none" : side.c_str());
+  append_format(out, "sidecars       %s\n", side.empty() ? "none" : side.c_str());
   if (ds.meta.origin)
-    append(out, "origin         lat %.9f, lon %.9f, alt %.3f m\n", ds.meta.origin->lat_deg, ds.meta.origin->lon_deg, ds.meta.origin->alt_m);
+    append_format(out, "origin         lat %.9f, lon %.9f, alt %.3f m\n", ds.meta.origin->lat_deg, ds.meta.origin->lon_deg, ds.meta.origin->alt_m);
   return out;
 }
 
