@@ -73,7 +73,7 @@ int main(int argc, char** argv) {
   auto* db_opt = app.add_option("--db", db, "a local map store instead of a server")->type_name("FILE");
   server_opt->excludes(db_opt);
   app.add_option("--map", cfg.tiles.map, "the map's name (pl-map list)")->required();
-  cli::number(app, "--version", version, "the map version (default: the current one)", cli::at_least(1))->default_str("");
+  cli::number(app, "--map-version", version, "the map version (default: the current one)", cli::at_least(1))->default_str("");
   cli::number(app, "--beams", beams, "beams kept of the sensor's (every k-th ring; default: all)", cli::between(1, 1024))->default_str("");
   cli::number(app, "--fov", lc.scan.fov_deg, "horizontal field of view kept, degrees, centred ahead", cli::above_up_to(0, 360));
   cli::choice(app, "--odometry", odometry, "what predicts between scans (auto: encoder, else odometry, else lidar momentum)",
