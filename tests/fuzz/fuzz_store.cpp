@@ -23,6 +23,7 @@
 
 #include "pl/common/error.hpp"
 #include "pl/schema/store.hpp"
+#include "pl/schema/api_rules.hpp"
 #include "sqlite_input.hpp"
 
 namespace fs = std::filesystem;
@@ -65,34 +66,8 @@ bool current_wal_store(const std::string& b) {
          be32(b, 60) == static_cast<std::uint32_t>(Store::latest_schema_version());
 }
 
-// Equal but for the header fields that SQLite's switch to WAL rewrites (read/write versions, change
-// counter, size in pages, version-valid-for, SQLite version number).
-bool same_but_wal_switch(const std::string& a, const std::string& b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    bool header_field = (i >= 18 && i < 20) || (i >= 24 && i < 32) || (i >= 92 && i < 100);
-    if (a[i] != b[i] && !header_field) return false;
-  }
-  return true;
-}
-
-bool is_hash(const std::string& s) {
-  if (s.size() != 64) return false;
-  for (char c : s)
-    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
-  return true;
-}
-
-bool valid_name(const std::string& n) {
-  if (n.empty() || n.size() > 64) return false;
-  for (char c : n)
-    if (!((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '.' || c == '-'))
-      return false;
-  return true;
-}
-
 void check_map(const MapInfo& m) {
-  if (!valid_name(m.name)) finding("list_maps/find_map returned an invalid map name");
+  if (!pl::api::valid_map_name(m.name)) finding("list_maps/find_map returned an invalid map name");
   if (!(m.origin.lat_deg >= -90 && m.origin.lat_deg <= 90) || !(m.origin.lon_deg >= -180 && m.origin.lon_deg <= 180) ||
       !std::isfinite(m.origin.alt_m))
     finding("map " + m.name + ": origin out of range");
@@ -107,7 +82,7 @@ void check_version(const VersionInfo& v) {
 }
 
 void check_tile(const TileRecord& t) {
-  if (!is_hash(t.hash)) finding("a tile whose hash is not 64 lowercase hex digits");
+  if (!pl::api::is_hash(t.hash)) finding("a tile whose hash is not 64 lowercase hex digits");
   if (t.points < 0 || t.bytes < 0) finding("a tile with negative points or bytes");
   for (double v : {t.min_x, t.min_y, t.min_z, t.max_x, t.max_y, t.max_z})
     if (!std::isfinite(v)) finding("a tile with bounds that are not finite");
@@ -257,7 +232,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     serve(s);
   });
   const std::string after = file.bytes();
-  if (!opened && !same_but_wal_switch(input, after)) finding("a refused open changed the file");
+  if (!opened && !pl::fuzz::same_but_wal_switch(input, after)) finding("a refused open changed the file");
   if (opened && current_wal_store(input) && after != input) finding("reading a current WAL store changed the file");
 
   // As pl-map: open with create (migrating an empty file), write.

@@ -22,6 +22,7 @@
 
 #include "pl/client/tile_cache.hpp"
 #include "pl/common/error.hpp"
+#include "pl/schema/api_rules.hpp"
 #include "sqlite_input.hpp"
 #include "pl/schema/store.hpp"
 
@@ -48,23 +49,6 @@ void attempt(F&& f) {
     f();
   } catch (const pl::Error&) {
   }
-}
-
-// Equal but for the header fields that SQLite's switch to WAL rewrites.
-bool same_but_wal_switch(const std::string& a, const std::string& b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    bool header_field = (i >= 18 && i < 20) || (i >= 24 && i < 32) || (i >= 92 && i < 100);
-    if (a[i] != b[i] && !header_field) return false;
-  }
-  return true;
-}
-
-bool is_hash(const std::string& s) {
-  if (s.size() != 64) return false;
-  for (char c : s)
-    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
-  return true;
 }
 
 void check_manifest(const std::optional<CachedManifest>& m) {
@@ -95,7 +79,7 @@ void read(TileCache& c, const std::string& known_hash) {
       attempt([&] { rows = c.tiles(map, v); });
       std::size_t n = 0;
       for (const auto& t : rows) {
-        if (t.exists() && !is_hash(t.hash)) finding("a key row whose hash is not 64 lowercase hex digits");
+        if (t.exists() && !pl::api::is_hash(t.hash)) finding("a key row whose hash is not 64 lowercase hex digits");
         if (t.exists() && ++n <= 4) check_blob(c, t.hash);
       }
     }
@@ -145,7 +129,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     read(cache, known_hash);
     write(cache);
   });
-  if (!opened && !same_but_wal_switch(input, file.bytes())) finding("a refused open changed the file");
+  if (!opened && !pl::fuzz::same_but_wal_switch(input, file.bytes())) finding("a refused open changed the file");
   if (!suspicion.empty() && !sqlite_finds_damage(work.dir(), input)) finding(suspicion);
   return 0;
 }
