@@ -19,12 +19,18 @@ namespace {
 using pl::Error;
 namespace cli = pl::cli;
 
-// The dataset indices of --scans all|even|odd, then --first K and --count N of them.
-std::vector<std::size_t> choose_scans(const pl::Dataset& ds, const std::string& which, std::size_t first, std::size_t count) {
+// The dataset indices of --scans all|even|odd, every --every-th of them, then --first K and --count N.
+std::vector<std::size_t> choose_scans(const pl::Dataset& ds, const std::string& which, std::size_t every, std::size_t first,
+                                      std::size_t count) {
   std::vector<std::size_t> scans;
   for (std::size_t i = 0; i < ds.size(); ++i) {
     const long f = ds.frame_ids.empty() ? static_cast<long>(i) : ds.frame_ids[i];
     if (which == "all" || (which == "even") == (f % 2 == 0)) scans.push_back(i);
+  }
+  if (every > 1) {
+    std::vector<std::size_t> kept;
+    for (std::size_t k = 0; k < scans.size(); k += every) kept.push_back(scans[k]);
+    scans.swap(kept);
   }
   if (first >= scans.size())
     throw Error("--first " + std::to_string(first) + " is not one of the " + std::to_string(scans.size()) + " " + which + " scans");
@@ -66,7 +72,7 @@ int main(int argc, char** argv) {
   std::string dataset, server, db, out, kitti_out, timing_out, odometry = "auto", init, init_search = "on", scans = "all";
   long long version = 0;
   int beams = 0;
-  std::size_t first = 0, count = std::numeric_limits<std::size_t>::max();
+  std::size_t every = 1, first = 0, count = std::numeric_limits<std::size_t>::max();
   bool realtime = false;
   app.add_option("--dataset", dataset, "the drive to localize (a dataset folder)")->required()->type_name("DIR");
   auto* server_opt = app.add_option("--server", server, "pl-server's address (http://HOST:PORT)")->type_name("URL");
@@ -80,7 +86,16 @@ int main(int argc, char** argv) {
               {"auto", "encoder", "odometry", "lidar"});
   app.add_option("--init", init, "start: x,y,z,yaw (degrees), gt, or gps (default: gps when the drive has fixes, else gt)");
   cli::choice(app, "--init-search", init_search, "search round an --init x,y,z,yaw (+-6 m, +-45 deg)", {"on", "off"});
+  std::string lidar_odometry = "on";
+  cli::choice(app, "--lidar-odometry", lidar_odometry, "LiDAR odometry where no other odometry covers the motion", {"on", "off"});
   cli::choice(app, "--scans", scans, "which scans", {"all", "even", "odd"});
+  cli::number(app, "--every", every, "keep every k-th of those scans (the same drive k times faster)", cli::between(1, 1000));
+  std::vector<std::size_t> cut;
+  std::string cut_clock = "keep";
+  app.add_option("--cut", cut, "leave out N scans after the K-th of those kept (the vehicle moved while blind)")
+      ->type_name("K,N")->delimiter(',')->expected(2);
+  cli::choice(app, "--cut-clock", cut_clock, "keep: the clock runs on over the cut; close: it does not (a kidnapping with no "
+              "hint; LiDAR only)", {"keep", "close"});
   cli::number(app, "--first", first, "skip this many of them", cli::at_least(0));
   cli::number(app, "--count", count, "localize at most this many", cli::at_least(1))->default_str("all");
   cli::number(app, "--voxel", lc.scan.voxel_m, "registration voxels, m", cli::above(0));
@@ -107,10 +122,22 @@ int main(int argc, char** argv) {
     if (beams > sensor || sensor % beams != 0)
       throw Error("--beams must divide the sensor's " + std::to_string(sensor) + " beams, got " + std::to_string(beams));
     lc.scan.beams = beams;
+    lc.lidar_odometry = lidar_odometry == "on";
     lc.scan.sensor_beams = sensor;
     if (version > 0) cfg.tiles.version = version;
     pl::client::ReplayOptions replay;
-    replay.scans = choose_scans(ds, scans, first, count);
+    replay.scans = choose_scans(ds, scans, every, first, count);
+    if (!cut.empty()) {
+      if (cut[0] < 1 || cut[0] + cut[1] >= replay.scans.size())
+        throw Error("--cut " + std::to_string(cut[0]) + "," + std::to_string(cut[1]) + ": keep at least one scan before and after the cut (of " +
+                    std::to_string(replay.scans.size()) + ")");
+      const double gap = ds.times[replay.scans[cut[0] + cut[1]]] - ds.times[replay.scans[cut[0]]];
+      replay.scans.erase(replay.scans.begin() + static_cast<long>(cut[0]), replay.scans.begin() + static_cast<long>(cut[0] + cut[1]));
+      if (cut_clock == "close") {
+        replay.time_shift.assign(replay.scans.size(), 0.0);
+        for (std::size_t k = cut[0]; k < replay.scans.size(); ++k) replay.time_shift[k] = -gap;
+      }
+    }
     replay.rings = beams < sensor;
     replay.realtime = realtime;
     if (odometry == "auto") odometry = !ds.encoder.empty() ? "encoder" : !ds.odometry.empty() ? "odometry" : "lidar";
@@ -124,6 +151,8 @@ int main(int argc, char** argv) {
       if (ds.odometry.empty()) throw Error("--odometry odometry: " + ds.dir + " has no odometry.csv");
       replay.odometry = pl::client::OdometrySource::Poses;
     }
+    if (!replay.time_shift.empty() && replay.odometry != pl::client::OdometrySource::None)
+      throw Error("--cut-clock close needs --odometry lidar (the odometry's own clock cannot be closed over the cut)");
     choose_start(ds, init.empty() ? (ds.gps.empty() ? "gt" : "gps") : init, init_search == "on", cfg, replay);
     if (db.empty()) cfg.tiles.server = server;
     else cfg.store_path = db;

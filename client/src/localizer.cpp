@@ -1,5 +1,7 @@
 #include "pl/client/localizer.hpp"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -11,13 +13,30 @@
 namespace pl::client {
 namespace {
 
+constexpr double kDeg = M_PI / 180.0;
+
 double now_ms() {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-void push_window(std::vector<double>& w, double value, std::size_t size = 20) {
+void push_window(std::vector<double>& w, double value, std::size_t size) {
   w.push_back(value);
   if (w.size() > size) w.erase(w.begin());
+}
+
+// sigma grown by an independent error g.
+void add_sigma(double& s, double g) { s = std::sqrt(s * s + g * g); }
+
+double horizontal_distance(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return (a.translation() - b.translation()).head<2>().norm();
+}
+
+// The registration's horizontal position sigma: the largest of its covariance proxy's xy block,
+// inflated as if only `independent` of the pairs were independent (neighbouring residuals are not).
+double registration_sigma(const registration::IcpResult& r, double independent) {
+  const Eigen::Matrix2d xy = r.covariance.topLeftCorner<2, 2>();
+  const double top = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(xy, Eigen::EigenvaluesOnly).eigenvalues()(1);
+  return std::sqrt(std::max(0.0, top)) * std::sqrt(std::max(1.0, static_cast<double>(r.pairs) / independent));
 }
 
 }  // namespace
@@ -39,7 +58,7 @@ std::vector<Eigen::Vector3f> to_points(const Scan& scan) {
 }
 
 Localizer::Localizer(const LocalizerConfig& cfg, double tile_size, TileProvider tiles)
-    : cfg_(cfg), tile_size_(tile_size), tiles_(std::move(tiles)), fusion_(cfg.fusion) {
+    : cfg_(cfg), tile_size_(tile_size), tiles_(std::move(tiles)), fusion_(cfg.fusion), odometry_(cfg.odometry) {
   if (!tiles_) throw Error("localizer: no tile provider");
 }
 
@@ -51,14 +70,31 @@ void Localizer::start(const Eigen::Isometry3d& pose, double t, const OdometryBuf
   lost_ = false;
   recent_share_.clear();
   recent_rms_.clear();
-  if (!map_ || (pose.translation() - map_->anchor()).head<2>().norm() > 5000.0)
+  odometry_.reset();
+  posterior_ = {cfg_.motion.fix_floor_m, cfg_.motion.fix_floor_m, cfg_.motion.fix_floor_deg * kDeg};
+  velocity_known_ = false;
+  previous_fused_ = false;
+  relocalizing_ = false;
+  set_anchor(t, posterior_, false, 0.0);
+  last_t_ = t;
+  last_pose_ = pose;
+  protection_m_ = cfg_.integrity.map_error_m + 3.0 * cfg_.motion.fix_floor_m;
+  if (!map_ || (pose.translation() - map_->anchor()).head<2>().norm() > 5000.0) {
     map_ = std::make_unique<RoiMap>(tile_size_, pose.translation(), cfg_.map);
+    coarse_ = std::make_unique<RoiMap>(tile_size_, pose.translation(), cfg_.coarse_map);
+  }
   update_map(pose.translation().head<2>());
 }
 
 void Localizer::update_map(const Eigen::Vector2d& center) {
-  if (!map_) map_ = std::make_unique<RoiMap>(tile_size_, Eigen::Vector3d(center.x(), center.y(), 0.0), cfg_.map);
-  map_->update(tiles_(center, cfg_.roi_radius_m));
+  if (!map_) {
+    const Eigen::Vector3d anchor(center.x(), center.y(), 0.0);
+    map_ = std::make_unique<RoiMap>(tile_size_, anchor, cfg_.map);
+    coarse_ = std::make_unique<RoiMap>(tile_size_, anchor, cfg_.coarse_map);
+  }
+  const std::vector<MapTile> tiles = tiles_(center, cfg_.roi_radius_m);
+  map_->update(tiles);
+  coarse_->update(tiles);
 }
 
 ScanReport Localizer::process(double t, const Scan& scan, const std::vector<std::uint16_t>& rings) {
@@ -72,82 +108,317 @@ ScanReport Localizer::process(double t, const Scan& scan, const std::vector<std:
 
 ScanReport Localizer::process_prepared(double t, const std::vector<Eigen::Vector3f>& points) {
   if (!fusion_.initialized()) throw Error("localizer: process() before start()");
-  ScanReport r = register_at(t, points, fusion_.predict(t));
+  ScanReport r = register_at(t, points, predict(t));
   fuse(r);
   return r;
 }
 
-ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& predicted) {
+Prediction Localizer::predict(double t) const {
+  Prediction p;
+  p.pose = fusion_.predict(t);
+  p.odometry = fusion_.odometry_covers(t) && fusion_.odometry_covers(last_t_);
+  return p;
+}
+
+Uncertainty Localizer::grow(double t, const Prediction& p) const {
+  const MotionConfig& m = cfg_.motion;
+  Uncertainty u;
+  if (p.odometry) {  // external odometry: a random walk per 0.1 s since the last scan
+    u = posterior_;
+    const double steps = std::sqrt(std::max(0.0, t - last_t_) / 0.1);
+    add_sigma(u.along, cfg_.fusion.odometry_sigma[0] * steps);
+    add_sigma(u.across, cfg_.fusion.odometry_sigma[1] * steps);
+    add_sigma(u.yaw, cfg_.fusion.odometry_sigma[5] * steps);
+    return u;
+  }
+  // Momentum from the last scan whose position was measured (a fix, or LiDAR odometry): the velocity
+  // then was known to anchor_speed_sigma_, the acceleration since is unknown to accel_sigma; the
+  // errors grow with the time since, linearly and quadratically (they do not average out).
+  const double T = std::max(0.0, t - anchor_t_);
+  const double speed = anchor_speed_sigma_ * T, accel = 0.5 * m.accel_sigma_mps2 * T * T;
+  const double turn = anchor_yaw_rate_sigma_ * T + 0.5 * m.yaw_accel_sigma_dps2 * kDeg * T * T;
+  u = anchor_;
+  add_sigma(u.along, std::hypot(speed, accel));
+  add_sigma(u.across, std::max(0.15 * speed, 0.5 * accel) + turn * anchor_speed_ * T);
+  add_sigma(u.yaw, turn);
+  return u;
+}
+
+void Localizer::set_anchor(double t, const Uncertainty& u, bool velocity_known, double speed) {
+  const MotionConfig& m = cfg_.motion;
+  anchor_t_ = t;
+  anchor_ = u;
+  anchor_speed_ = speed;
+  anchor_speed_sigma_ = velocity_known ? m.speed_sigma_mps : m.max_speed_mps / 3.0;
+  anchor_yaw_rate_sigma_ = (velocity_known ? m.yaw_rate_sigma_dps : m.max_yaw_rate_dps / 3.0) * kDeg;
+}
+
+ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& points, const Prediction& prediction) {
   if (!map_) throw Error("localizer: register_at() before start()");
+  const MotionConfig& m = cfg_.motion;
   ScanReport r;
   r.t = t;
   r.scan_points = points.size();
-  r.predicted = predicted;
+  Uncertainty u = grow(t, prediction);
+  Eigen::Isometry3d guess = prediction.pose;
+  r.motion = prediction.odometry ? "odometry" : "momentum";
 
+  // LiDAR odometry measures the motion where no external odometry does, when the local map's basin
+  // reaches the prediction's uncertainty.
   double t0 = now_ms();
-  update_map(r.predicted.translation().head<2>());
+  if (cfg_.lidar_odometry && !prediction.odometry && !odometry_.empty() && 3.0 * u.horizontal() <= m.coarse_basin_m &&
+      3.0 * u.yaw <= m.coarse_basin_deg * kDeg) {
+    const bool wide = 3.0 * u.horizontal() > m.fine_basin_m || 3.0 * u.yaw > m.fine_basin_deg * kDeg;
+    const registration::IcpResult odo = odometry_.track(points, guess, wide);
+    if (odo.accepted) {
+      const double d = horizontal_distance(last_pose_, odo.pose);
+      guess = odo.pose;
+      // From a wide basin the increment is as uncertain as half the basin.
+      const double step = m.odometry_sigma_m + m.odometry_share * d;
+      const double g = wide ? std::max(step, u.horizontal() / 2.0) : step;
+      u = posterior_;
+      add_sigma(u.along, g);
+      add_sigma(u.across, g);
+      add_sigma(u.yaw, m.odometry_sigma_deg * kDeg);
+      r.odometry_ok = true;
+      r.motion = "lidar odometry";
+    }
+  }
+  r.odometry_ms = now_ms() - t0;
+  r.predicted = guess;
+  r.uncertainty = u;
+
+  t0 = now_ms();
+  update_map(guess.translation().head<2>());
   r.map_ms = now_ms() - t0;
   r.map_tiles = map_->tiles();
   r.map_points = map_->points();
 
+  // The basin the uncertainty asks for.
   t0 = now_ms();
-  r.icp = registration::register_scan(map_->points_map(), points, r.predicted, cfg_.icp);
+  const double r3 = 3.0 * u.horizontal(), y3 = 3.0 * u.yaw / kDeg;
+  std::vector<registration::Candidate> alternatives;
+  if (r3 <= m.fine_basin_m && y3 <= m.fine_basin_deg) {
+    r.basin = "fine";
+    r.icp = registration::register_scan(map_->points_map(), points, guess, cfg_.icp);
+  } else if (r3 <= m.coarse_basin_m && y3 <= m.coarse_basin_deg) {
+    r.basin = "coarse";
+    r.icp = registration::register_coarse_to_fine(coarse_->points_map(), map_->points_map(), points, guess, cfg_.icp);
+  } else {
+    r.basin = "search";
+    registration::PoseSearch s;
+    const bool jumped = relocalizing_;
+    s.position_step_m = 2.0;
+    s.along_m = std::clamp(3.0 * u.along, s.position_step_m, jumped ? m.relocalize_m : m.search_along_m);
+    s.across_m = std::clamp(3.0 * u.across, s.position_step_m, jumped ? m.relocalize_m : m.search_across_m);
+    s.yaw_range_deg = std::min(180.0, y3);
+    s.yaw_step_deg = 8.0;
+    s.refine = jumped ? 24 : 8;
+    // Within the seed budget: the positions of the ellipse times the headings.
+    const double headings = 2.0 * std::floor(s.yaw_range_deg / s.yaw_step_deg) + 1.0;
+    const double positions = M_PI * s.along_m * s.across_m / (s.position_step_m * s.position_step_m);
+    if (positions * headings > m.max_seeds) s.position_step_m *= std::sqrt(positions * headings / m.max_seeds);
+    alternatives = registration::search_poses(coarse_->points_map(), map_->points_map(), points, guess, s, cfg_.icp);
+    if (alternatives.empty()) {
+      r.icp = registration::register_scan(map_->points_map(), points, guess, cfg_.icp);
+    } else {
+      r.icp = alternatives.front().icp;
+      alternatives.erase(alternatives.begin());
+    }
+  }
   r.register_ms = now_ms() - t0;
   for (int i = 0; i < 3; ++i) r.position_sigma[i] = std::sqrt(std::max(0.0, r.icp.covariance(i, i)));
+
+  t0 = now_ms();
+  check_integrity(points, r, alternatives);
+  r.integrity_ms = now_ms() - t0;
+  scan_ = points;
   return r;
+}
+
+void Localizer::check_integrity(const std::vector<Eigen::Vector3f>& points, ScanReport& r,
+                                std::vector<registration::Candidate> alternatives) const {
+  const IntegrityConfig& c = cfg_.integrity;
+  if (!r.icp.accepted) return;
+  // Perturbed seeds round the solution: along the direction the registration holds least and across
+  // it, each with a turn. (A search has its own alternatives.)
+  if (std::string(r.basin) != "search" && c.seeds > 0) {
+    const Eigen::Matrix2d xy = r.icp.covariance.topLeftCorner<2, 2>();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(xy);
+    Eigen::Vector2d weak = es.eigenvectors().col(1);
+    if (!weak.allFinite() || weak.norm() < 0.5) weak = Eigen::Vector2d::UnitX();
+    const std::vector<Eigen::Vector3f> sparse = registration::subsample(points, 400);
+    const registration::IcpConfig wide = registration::coarse_icp(cfg_.icp, 10);
+    registration::IcpConfig refine = cfg_.icp;
+    refine.max_iterations = 20;
+    // The solution's own score on the coarse map: a seed ending well below it is not refined.
+    const double own = registration::registration_score(registration::register_scan(coarse_->points_map(), sparse, r.icp.pose, wide));
+    for (int k = 0; k < c.seeds; ++k) {
+      const double sign = k % 2 == 0 ? 1.0 : -1.0;
+      const int kind = (k / 2) % 3;  // 0, 1: along the weak direction, near and far; 2: a turn
+      Eigen::Isometry3d seed = r.icp.pose;
+      if (kind < 2) seed.translation().head<2>() += sign * (kind == 0 ? 1.0 : 1.7) * c.seed_offset_m * weak;
+      else seed.linear() = rotation_from_vector(Eigen::Vector3d(0, 0, sign * c.seed_yaw_deg * kDeg)) * seed.linear();
+      const registration::IcpResult coarse = registration::register_scan(coarse_->points_map(), sparse, seed, wide);
+      if (horizontal_distance(coarse.pose, r.icp.pose) <= c.distinct_m) continue;  // back in the solution's basin
+      if (registration::registration_score(coarse) < c.ambiguity_ratio * own) continue;
+      registration::Candidate alt;
+      alt.icp = registration::register_scan(map_->points_map(), points, coarse.pose, refine);
+      if (!alt.icp.accepted || horizontal_distance(alt.icp.pose, r.icp.pose) <= c.distinct_m) continue;
+      alt.score = registration::registration_score(alt.icp);
+      alternatives.push_back(alt);
+    }
+  }
+  // The best distinct alternative: better by the ratio, it replaces the solution; about as good, the
+  // scan is ambiguous.
+  double best = registration::registration_score(r.icp);
+  const registration::Candidate* top = nullptr;
+  for (const auto& a : alternatives)
+    if (horizontal_distance(a.icp.pose, r.icp.pose) > c.distinct_m && (!top || a.score > top->score)) top = &a;
+  if (top && top->score * c.ambiguity_ratio > best) {
+    r.alternative_m = horizontal_distance(top->icp.pose, r.icp.pose);
+    r.icp = top->icp;
+    r.resolved = true;
+    best = top->score;
+  } else if (top) {
+    r.alternative_m = horizontal_distance(top->icp.pose, r.icp.pose);
+    r.ambiguous = top->score >= c.ambiguity_ratio * best;
+  }
+  // Absolute and relative checks.
+  const bool absolute = r.icp.inlier_share >= c.min_share && r.icp.rms_m <= c.max_rms_m;
+  bool relative = true;
+  if (recent_share_.size() >= 3)
+    relative = r.icp.inlier_share >= median(recent_share_) - c.share_drop && r.icp.rms_m <= c.rms_rise * median(recent_rms_);
+  r.plausible = absolute;
+  r.consistent = relative;
+  r.verified = absolute && relative && !r.ambiguous;
+  // A pose found by a search is confirmed by the next scan before it is ok.
+  const bool searched = std::string(r.basin) == "search";
+  r.integrity = r.verified && !r.resolved && !searched;
+  if (!absolute) r.note = r.icp.inlier_share < c.min_share ? "too few scan points on a map surface" : "residual too large";
+  else if (!relative) r.note = "the fit is worse than the recent scans'";
+  else if (r.ambiguous) r.note = "ambiguous: another pose fits about as well";
+  else if (r.resolved) r.note = "left a wrong minimum";
+  else if (searched) r.note = "found by a search: to be confirmed by the next scan";
+  // The protection level. Unverified for another reason than ambiguity, the error is known only to be
+  // within the reach of the search that would find the vehicle again.
+  r.protection_m = c.map_error_m + c.sigmas * registration_sigma(r.icp, c.independent_pairs) + (r.ambiguous ? r.alternative_m : 0.0);
+  if (!absolute || !relative) r.protection_m = c.map_error_m + cfg_.motion.relocalize_m;
 }
 
 void Localizer::fuse(ScanReport& r) {
   if (!fusion_.initialized()) throw Error("localizer: fuse() before start()");
+  const MotionConfig& m = cfg_.motion;
+  const IntegrityConfig& c = cfg_.integrity;
   const double t = r.t;
+  const Uncertainty& u = r.uncertainty;
 
-  // Health. The divergence detector does not rest on one score: it needs a large correction
-  // together with a fall in the share of paired points or a rise of the residual against their
-  // recent medians -- or a run of scans that could not be fused.
+  // The gate: the correction within 3 sigma of the prediction (plus a floor), axis by axis.
   const Eigen::Isometry3d delta = r.predicted.inverse() * r.icp.pose;
-  const double corr_m = delta.translation().norm();
-  const double corr_deg = rotation_angle(delta) * 180.0 / M_PI;
-  const bool big_correction = corr_m > cfg_.max_correction_m || corr_deg > cfg_.max_correction_deg;
-  const bool share_fell = recent_share_.size() >= 5 && r.icp.inlier_share < 0.5 * median(recent_share_);
-  const bool rms_rose = recent_rms_.size() >= 5 && r.icp.rms_m > 2.0 * median(recent_rms_);
-  r.diverging = big_correction && (share_fell || rms_rose || !r.icp.accepted);
+  const double dyaw = std::abs(std::atan2(delta.linear()(1, 0), delta.linear()(0, 0)));
+  const bool gate = std::abs(delta.translation().x()) <= 3.0 * u.along + m.gate_floor_m &&
+                    std::abs(delta.translation().y()) <= 3.0 * u.across + m.gate_floor_m &&
+                    dyaw <= 3.0 * u.yaw + m.gate_floor_deg * kDeg;
   r.map_outdated = r.icp.accepted && (1.0 - r.icp.inlier_share) > cfg_.outdated_share;
-
-  const bool take = r.icp.accepted && (!big_correction || lost_);
+  // From an uncertain prediction (a coarse basin or a search) only a verified result is fused: that is
+  // where wrong minima are.
+  const bool trusted_basin = std::string(r.basin) == "fine";
+  const bool take = r.icp.accepted && r.plausible && gate && (trusted_basin || r.verified);
+  r.gated = r.icp.accepted && r.plausible && !gate;
+  r.diverging = r.gated;
+  // A relocalization search that moved the vehicle relocated it: what momentum and the local map
+  // knew of the motion belongs to the old place.
+  const bool relocated =
+      take && relocalizing_ && std::string(r.basin) == "search" && horizontal_distance(r.predicted, r.icp.pose) > m.lost_m;
+  if (relocated) {
+    fusion_.restart(r.icp.pose, t);
+    odometry_.reset();
+    previous_fused_ = false;
+  }
   if (take) {
-    r.fused = fusion_.correct(t, r.icp.pose);
+    r.fused = relocated ? r.icp.pose : fusion_.correct(t, r.icp.pose);
     r.fused_lidar = true;
     unfused_streak_ = 0;
     lost_ = false;
-    push_window(recent_share_, r.icp.inlier_share);
-    push_window(recent_rms_, r.icp.rms_m);
+    const double s = std::max(m.fix_floor_m, registration_sigma(r.icp, c.independent_pairs));
+    const double yaw_s = std::max(m.fix_floor_deg * kDeg, std::sqrt(std::max(0.0, r.icp.covariance(5, 5))));
+    posterior_ = {s, s, yaw_s};
+    // Two fused scans in a row give momentum its velocity; LiDAR odometry measures it.
+    velocity_known_ = r.odometry_ok || previous_fused_;
+    if (r.integrity) {
+      push_window(recent_share_, r.icp.inlier_share, static_cast<std::size_t>(c.reference_scans));
+      push_window(recent_rms_, r.icp.rms_m, static_cast<std::size_t>(c.reference_scans));
+    }
   } else {
     fusion_.coast(t);
     r.fused = fusion_.predict(t);
+    if (r.odometry_ok) r.fused = r.predicted;  // the measured motion beats momentum
+    posterior_ = u;
+    if (r.odometry_ok) velocity_known_ = true;
     ++unfused_streak_;
-    r.note = r.icp.accepted ? "correction too large" : r.icp.reject_reason;
+    if (r.gated) r.note = "correction beyond the prediction's uncertainty";
+    else if (r.note.empty()) r.note = r.icp.accepted ? "not verified" : r.icp.reject_reason;
+    r.protection_m = c.map_error_m + 3.0 * std::hypot(u.along, u.across);
   }
-  if (r.diverging || unfused_streak_ >= cfg_.lost_after) lost_ = true;
+  // The local map of the LiDAR odometry: the scan where it was put. A scan that neither the map nor
+  // the odometry could place (a jump) starts the local map again.
+  if (cfg_.lidar_odometry) {
+    if (!take && !r.odometry_ok && !odometry_.empty()) odometry_.reset();
+    odometry_.add(scan_, r.fused);
+  }
+  if (take || r.odometry_ok) {
+    const double dt = t - last_t_;
+    const double speed = dt > 0 && !relocated ? horizontal_distance(last_pose_, r.fused) / dt : 0.0;
+    set_anchor(t, posterior_, velocity_known_, speed);
+  }
+  last_t_ = t;
+  last_pose_ = r.fused;
+  previous_fused_ = take;
+
+  // A scan neither the map nor the LiDAR odometry could place, fitting the map badly at the
+  // prediction: the vehicle may be elsewhere. Search round the last pose from the next scan on.
+  if (!take && !r.odometry_ok && (!r.icp.accepted || !r.plausible)) {
+    relocalizing_ = true;
+    lost_ = true;
+    const double reach = m.relocalize_m / 3.0;
+    posterior_ = {std::max(reach, u.along), std::max(reach, u.across), std::max(m.relocalize_deg * kDeg / 3.0, u.yaw)};
+    set_anchor(t, posterior_, velocity_known_, 0.0);
+    r.protection_m = c.map_error_m + m.relocalize_m;
+    r.note = "the scan fits neither the map here nor the recent scans: searching " + std::to_string(static_cast<int>(m.relocalize_m)) +
+             " m round";
+  }
+  // Scans that fit worse than the recent ones, twice in a row: search again round the last pose.
+  unverified_streak_ = r.icp.accepted && r.plausible && !r.consistent ? unverified_streak_ + 1 : 0;
+  if (unverified_streak_ >= 2 && !relocalizing_) {
+    relocalizing_ = true;
+    unverified_streak_ = 0;
+    posterior_ = {m.relocalize_m / 3.0, m.relocalize_m / 3.0, std::max(m.relocalize_deg * kDeg / 3.0, posterior_.yaw)};
+    set_anchor(t, posterior_, velocity_known_, 0.0);
+  } else if (take && r.verified) {
+    relocalizing_ = false;
+  }
+  // A verified result of a search is the reference the next scans are compared with.
+  if (take && r.verified && std::string(r.basin) == "search") {
+    recent_share_.assign(1, r.icp.inlier_share);
+    recent_rms_.assign(1, r.icp.rms_m);
+  }
+  if (!take && (3.0 * u.horizontal() > m.lost_m || unfused_streak_ >= cfg_.lost_after)) lost_ = true;
   if (lost_) {
     r.health = Health::Lost;
-    if (r.note.empty()) r.note = r.diverging ? "diverging" : "too many scans not fused";
-  } else if (!r.fused_lidar || r.map_outdated) {
+    if (r.note.empty()) r.note = "too many scans not fused";
+  } else if (!take || !r.integrity || r.map_outdated) {
     r.health = Health::Degraded;
-    if (r.note.empty()) r.note = "map looks outdated";
+    if (r.note.empty()) r.note = r.map_outdated ? "map looks outdated" : "not verified";
   }
+  protection_m_ = r.protection_m;
 }
 
 bool Localizer::start_near(const Eigen::Isometry3d& guess, double t, const OdometryBuffer* odometry, const Scan& scan,
                            const std::vector<std::uint16_t>& rings, const registration::PoseSearch& search) {
   start(guess, t, odometry);
   const std::vector<Eigen::Vector3f> points = to_points(prepare_scan(scan, rings, cfg_.scan));
-  // The seeds find their basin on the same tiles in 2 m cells.
-  RoiMapConfig coarse_cfg;
-  coarse_cfg.cell_m = 2.0;
-  RoiMap coarse(tile_size_, guess.translation(), coarse_cfg);
-  coarse.update(tiles_(guess.translation().head<2>(), cfg_.roi_radius_m));
   Eigen::Isometry3d found;
-  if (!registration::search_pose(coarse.points_map(), map_->points_map(), points, guess, search, cfg_.icp, found)) return false;
+  if (!registration::search_pose(coarse_->points_map(), map_->points_map(), points, guess, search, cfg_.icp, found)) return false;
   start(found, t, odometry);
   return true;
 }

@@ -38,16 +38,20 @@ constexpr double kAhead = 0.25;
 
 ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOptions& o) {
   if (o.scans.empty()) throw Error("replay: no scan to localize");
+  if (!o.time_shift.empty() && (o.time_shift.size() != o.scans.size() || o.odometry != OdometrySource::None))
+    throw Error("replay: time shifts need one per scan and no odometry");
+  const auto time_of = [&](std::size_t k) { return ds.times[o.scans[k]] + (o.time_shift.empty() ? 0.0 : o.time_shift[k]); };
   ReplayResult out;
   out.fused.format = PoseFormat::Tum;
   OdometryFeed feed{ds, o.odometry};
-  const double t0 = ds.times[o.scans.front()];
+  const double t0 = time_of(0);
   feed.until(loc, t0 + kAhead);
   if (o.start) o.start(loc);
   if (o.timing)
     std::fprintf(o.timing,
                  "scan,t,registration_ms,prepare_ms,map_ms,total_ms,points,iterations,pairs,inlier_share,rms_m,"
-                 "conditioning,correction_m,position_sigma_m,status,fused,note\n");
+                 "conditioning,correction_m,position_sigma_m,odometry_ms,integrity_ms,motion,basin,uncertainty_m,protection_m,alternative_m,"
+                 "status,fused,note\n");
   const bool odometry = o.odometry != OdometrySource::None;
   // The output at the odometry rate: sample `out_next` is the next one not yet written.
   std::size_t out_next = 0;
@@ -56,7 +60,7 @@ ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOption
   const double wall0 = seconds_now();
   for (std::size_t k = 0; k < o.scans.size(); ++k) {
     const std::size_t i = o.scans[k];
-    const double t = ds.times[i];
+    const double t = time_of(k);
     if (o.realtime) {
       const double wait = (t - t0) - (seconds_now() - wall0);
       if (wait > 0) std::this_thread::sleep_for(std::chrono::duration<double>(wait));
@@ -98,14 +102,15 @@ ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOption
     out.outdated += r.map_outdated;
     (r.health == Health::Ok ? out.ok : r.health == Health::Degraded ? out.degraded : out.lost)++;
     if (o.timing)
-      std::fprintf(o.timing, "%zu,%.6f,%.3f,%.3f,%.3f,%.3f,%zu,%d,%d,%.4f,%.4f,%.4f,%.4f,%.5f,%s,%d,%s\n", i, t, r.register_ms,
-                   r.prepare_ms, r.map_ms, latency * 1000.0, r.scan_points, r.icp.iterations, r.icp.pairs, r.icp.inlier_share,
-                   r.icp.rms_m, r.icp.conditioning, (r.predicted.translation() - r.icp.pose.translation()).norm(),
-                   r.position_sigma.norm(), health_name(r.health), r.fused_lidar ? 1 : 0, r.note.c_str());
+      std::fprintf(o.timing, "%zu,%.6f,%.3f,%.3f,%.3f,%.3f,%zu,%d,%d,%.4f,%.4f,%.4f,%.4f,%.5f,%.3f,%.3f,%s,%s,%.4f,%.4f,%.3f,%s,%d,%s\n", i,
+                   t, r.register_ms, r.prepare_ms, r.map_ms, latency * 1000.0, r.scan_points, r.icp.iterations, r.icp.pairs,
+                   r.icp.inlier_share, r.icp.rms_m, r.icp.conditioning, (r.predicted.translation() - r.icp.pose.translation()).norm(),
+                   r.position_sigma.norm(), r.odometry_ms, r.integrity_ms, r.motion, r.basin, r.uncertainty.horizontal(),
+                   r.protection_m, r.alternative_m, health_name(r.health), r.fused_lidar ? 1 : 0, r.note.c_str());
     if (o.progress) o.progress(k + 1, o.scans.size());
   }
   if (odometry) {
-    for (; out_next < feed.size() && feed.time(out_next) <= ds.times[o.scans.back()]; ++out_next) {
+    for (; out_next < feed.size() && feed.time(out_next) <= time_of(o.scans.size() - 1); ++out_next) {
       out.fused.times.push_back(feed.time(out_next));
       out.fused.poses.push_back(loc.pose_at(feed.time(out_next)).base_in_map);
     }

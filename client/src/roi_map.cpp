@@ -4,7 +4,10 @@
 #include <cmath>
 #include <string>
 
+#include <unordered_set>
+
 #include "pl/common/error.hpp"
+#include "pl/common/voxel.hpp"
 
 namespace pl::client {
 namespace {
@@ -13,6 +16,18 @@ namespace {
 registration::PointMap::PartId part_of(const TileKey& k) {
   const auto biased = [](std::int32_t v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) ^ 0x80000000u); };
   return (biased(k.tx) << 32) | biased(k.ty);
+}
+
+// The first point of each voxel, with its normal.
+void thin(const TileCloud& cloud, double voxel_m, std::vector<Eigen::Vector3d>& points, std::vector<Eigen::Vector3f>& normals) {
+  std::unordered_set<VoxelIndex, VoxelIndexHash> seen;
+  seen.reserve(cloud.size());
+  const double inv = 1.0 / voxel_m;
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (seen.insert(voxel_index(cloud.points[i], inv)).second) {
+      points.push_back(cloud.points[i]);
+      normals.push_back(cloud.normals[i]);
+    }
 }
 
 }  // namespace
@@ -26,6 +41,7 @@ RoiMap::RoiMap(double tile_size, const Eigen::Vector3d& anchor, const RoiMapConf
   const Eigen::Vector3d snapped(std::floor(anchor.x() / tile_size) * tile_size, std::floor(anchor.y() / tile_size) * tile_size,
                                 std::floor(anchor.z() / cell) * cell);
   map_ = std::make_unique<registration::PointMap>(snapped, cell);
+  thin_m_ = cfg.thin_m;
 }
 
 std::size_t RoiMap::update(const std::vector<MapTile>& tiles) {
@@ -45,7 +61,14 @@ std::size_t RoiMap::update(const std::vector<MapTile>& tiles) {
   }
   for (const auto& [key, tile] : wanted)
     if (!held_.count(key)) {
-      map_->add(part_of(key), tile->cloud->points, tile->cloud->normals);
+      if (thin_m_ > 0) {
+        std::vector<Eigen::Vector3d> points;
+        std::vector<Eigen::Vector3f> normals;
+        thin(*tile->cloud, thin_m_, points, normals);
+        map_->add(part_of(key), points, normals);
+      } else {
+        map_->add(part_of(key), tile->cloud->points, tile->cloud->normals);
+      }
       held_[key] = tile->hash;
       ++changes;
     }

@@ -169,10 +169,10 @@ struct VehicleLocalizer::Impl {
   // One scan: predict, focus the tiles, prepare, register (unlocked), fuse. Called with the lock held.
   void process(ScanJob& job, std::unique_lock<std::mutex>& lk) {
     const double t = job.t;
-    const Eigen::Isometry3d predicted = loc->pose_at(t);
+    const Prediction predicted = loc->predict(t);
     if (!job.times.empty()) deskew(job);
     lk.unlock();
-    const Eigen::Vector2d xy = predicted.translation().head<2>();
+    const Eigen::Vector2d xy = predicted.pose.translation().head<2>();
     const Eigen::Vector2d velocity =
         t > last_scan_t ? Eigen::Vector2d((xy - last_xy) / (t - last_scan_t)) : Eigen::Vector2d::Zero();
     if (client) client->set_focus(xy, xy + cfg.lookahead_s * velocity);

@@ -40,6 +40,8 @@ class Fusion {
   // Starts at `pose` at time t. `odometry` may be nullptr (momentum only); it must outlive this.
   void reset(const Eigen::Isometry3d& pose, double t, const OdometryBuffer* odometry);
   bool initialized() const { return initialized_; }
+  // Starts again at `pose` at t with the same odometry (momentum forgets the poses before).
+  void restart(const Eigen::Isometry3d& pose, double t) { reset(pose, t, odometry_); }
   // The pose at t: odometry when it covers t, else momentum.
   Eigen::Isometry3d predict(double t) const;
   bool odometry_covers(double t) const;

@@ -1,7 +1,13 @@
-// PointLocalization, one scan at a time: predict the pose at the scan's time (odometry applied to the
-// last fused pose, or momentum), bring the ROI map up to date from the tiles around the prediction,
-// prepare the scan (beams, field of view, range, voxels), register it point-to-plane, check the
-// result, fuse it at the scan's time, and say how healthy the estimate is.
+// PointLocalization, one scan at a time, never wrong without saying so:
+//  1. predict the pose at the scan's time (external odometry applied to the last fused pose, else
+//     momentum), with an uncertainty that grows with time and distance since the last accepted fix;
+//  2. without external odometry, LiDAR odometry measures the motion since the previous scans;
+//  3. register the scan to the tiles around the prediction over a basin as wide as the uncertainty
+//     (plain ICP, coarse-to-fine, or a search of the whole uncertainty region);
+//  4. check the result for integrity (points on a map surface, residual, against the recent past,
+//     and whether a distinctly different pose explains the scan about as well), gate it by the
+//     prediction's uncertainty, fuse it, and report a health and a protection level (a bound on the
+//     position error).
 #pragma once
 
 #include <Eigen/Geometry>
@@ -12,6 +18,7 @@
 #include <vector>
 
 #include "pl/client/fusion.hpp"
+#include "pl/client/lidar_odometry.hpp"
 #include "pl/client/odometry.hpp"
 #include "pl/client/roi_map.hpp"
 #include "pl/common/scan.hpp"
@@ -19,6 +26,66 @@
 #include "pl/registration/pose_search.hpp"
 
 namespace pl::client {
+
+// How far the prediction may be off, 1 sigma, in the frame of the vehicle's heading.
+struct Uncertainty {
+  double along = 0, across = 0;  // metres
+  double yaw = 0;                // radians
+  double horizontal() const { return along > across ? along : across; }
+};
+
+// How the prediction's uncertainty grows, and which basin it asks of the registration.
+struct MotionConfig {
+  double max_speed_mps = 30.0;      // a start with no velocity may be moving this fast, forward or back
+  double max_yaw_rate_dps = 30.0;   // ... and turning this fast
+  double speed_sigma_mps = 0.3;     // momentum: the velocity measured from the last scans (1 sigma)
+  double yaw_rate_sigma_dps = 1.5;
+  double accel_sigma_mps2 = 1.0;    // ... and how fast it changes since (1 sigma)
+  double yaw_accel_sigma_dps2 = 5.0;
+  double odometry_sigma_m = 0.03;   // LiDAR odometry: per scan, plus a share of the distance
+  double odometry_share = 0.01;
+  double odometry_sigma_deg = 0.15;
+  double fix_floor_m = 0.03;        // a fix is never taken as better than this (1 sigma)
+  double fix_floor_deg = 0.1;
+  double fine_basin_m = 0.45;       // 3 sigma within this: plain ICP on the fine map
+  double fine_basin_deg = 3.0;
+  double coarse_basin_m = 3.0;      // within this: coarse map first; beyond: a search of the region
+  double coarse_basin_deg = 10.0;
+  double search_along_m = 40.0;     // a search covers at most this far along the heading
+  double search_across_m = 12.0;    // ... and across it
+  double gate_floor_m = 0.3;        // a correction beyond 3 sigma of the prediction plus this is not
+  double gate_floor_deg = 2.0;      // fused
+  double lost_m = 2.0;              // an unfused scan with a 3-sigma uncertainty beyond this is lost
+  // A scan that fits neither the map round the prediction nor the recent scans: the vehicle may have
+  // been moved (a kidnapping, a long outage). The next scans search this far round the last pose,
+  // every heading within relocalize_deg, until a verified pose is found.
+  double relocalize_m = 40.0;
+  double relocalize_deg = 30.0;
+  int max_seeds = 2500;             // a search's seeds at most (its position step grows to fit)
+};
+
+// The checks a fused result must pass to be `ok`.
+struct IntegrityConfig {
+  double min_share = 0.6;     // absolute: share of the scan's points on a map surface within delta;
+  double max_rms_m = 0.15;    //   residual RMS. Failing either, the result is not fused.
+  double share_drop = 0.06;   // relative to the recent verified scans: the share fell by more than this,
+  double rms_rise = 1.3;      //   or the residual rose this many times
+  int reference_scans = 20;   // the recent verified scans the relative checks compare with
+  // Re-registrations from perturbed seeds: a distinctly different pose (farther than distinct_m)
+  // scoring at least ambiguity_ratio of the solution's makes the scan ambiguous (degraded); scoring
+  // better by that ratio, it replaces the solution (a wrong minimum escaped).
+  int seeds = 6;  // +-1 and +-1.7 seed_offset_m along the direction held least, +-seed_yaw_deg
+  double seed_offset_m = 1.0;
+  double seed_yaw_deg = 5.0;
+  double distinct_m = 0.5;
+  double ambiguity_ratio = 0.85;
+  // The protection level: map_error_m + sigmas x the registration's position sigma (inflated for
+  // the correlation of neighbouring residuals, as if only `independent_pairs` were independent),
+  // plus the spread of near-equal alternatives; unfused, the prediction's 3 sigma is added.
+  double map_error_m = 0.12;
+  double sigmas = 3.0;
+  double independent_pairs = 50.0;
+};
 
 struct LocalizerConfig {
   ScanPrepConfig scan = [] {
@@ -35,6 +102,12 @@ struct LocalizerConfig {
     c.cell_m = 0.5;  // pairs within 0.25 m found exactly, up to 0.5 m approximately
     return c;
   }();
+  RoiMapConfig coarse_map = [] {
+    RoiMapConfig c;
+    c.cell_m = 2.0;  // for wide basins: pairs up to 2 m
+    c.thin_m = 0.6;  // a few points per cell are enough to find the basin
+    return c;
+  }();
   registration::IcpConfig icp = [] {
     registration::IcpConfig c;
     c.kernel_m = 0.3;
@@ -42,29 +115,49 @@ struct LocalizerConfig {
     return c;
   }();
   FusionConfig fusion;
-  // Health.
-  double max_correction_m = 1.5;    // a registration moving the prediction further is not fused
-  double max_correction_deg = 8.0;  // (unless the estimate is already lost)
-  int lost_after = 10;              // consecutive unfused scans before "lost"
-  double outdated_share = 0.45;     // share of scan points without a map pair that suggests an outdated map
+  MotionConfig motion;
+  IntegrityConfig integrity;
+  bool lidar_odometry = true;  // measure the motion with LiDAR odometry where no external odometry covers it
+  LidarOdometryConfig odometry;
+  int lost_after = 10;           // consecutive unfused scans before "lost"
+  double outdated_share = 0.45;  // share of scan points without a map pair that suggests an outdated map
 };
 
 enum class Health { Ok, Degraded, Lost };
 const char* health_name(Health h);
 
+// The prediction of a scan's pose, taken under the caller's lock (it reads the odometry buffer).
+struct Prediction {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  bool odometry = false;  // external odometry covers the interval since the last scan
+};
+
 struct ScanReport {
   double t = 0;
-  Eigen::Isometry3d predicted = Eigen::Isometry3d::Identity();
-  Eigen::Isometry3d fused = Eigen::Isometry3d::Identity();  // the pose reported for the scan
+  Eigen::Isometry3d predicted = Eigen::Isometry3d::Identity();  // after LiDAR odometry, when it ran
+  Eigen::Isometry3d fused = Eigen::Isometry3d::Identity();      // the pose reported for the scan
   registration::IcpResult icp;
-  bool fused_lidar = false;  // the registration was accepted and fused
+  Uncertainty uncertainty;             // the prediction's (1 sigma)
+  const char* basin = "fine";          // fine, coarse, search
+  const char* motion = "momentum";     // odometry, lidar odometry, momentum, start
+  bool odometry_ok = false;            // LiDAR odometry gave the increment
+  bool fused_lidar = false;            // the registration was accepted and fused
+  bool gated = false;                  // rejected by the gate on the prediction's uncertainty
+  bool plausible = false;              // the absolute checks passed (share on a map surface, residual)
+  bool consistent = false;             // the relative checks passed (against the recent verified scans)
+  bool verified = false;               // ... and the relative ones, and no alternative fits about as well
+  bool integrity = false;              // verified, from the registration's own minimum: the scan may be ok
+  bool ambiguous = false;              // a distinctly different pose explains the scan about as well
+  bool resolved = false;               // a perturbed seed found a better minimum, which was taken
+  double alternative_m = 0;            // distance to the best distinct alternative (0: none)
+  double protection_m = 0;             // bound on the horizontal position error
   Health health = Health::Ok;
-  std::string note;          // why degraded or lost
+  std::string note;                    // why degraded or lost
   bool map_outdated = false;
   bool diverging = false;
   std::size_t scan_points = 0;  // after preparation: the points registered
   std::size_t map_tiles = 0, map_points = 0;
-  double prepare_ms = 0, map_ms = 0, register_ms = 0;
+  double prepare_ms = 0, map_ms = 0, register_ms = 0, odometry_ms = 0, integrity_ms = 0;
   Eigen::Vector3d position_sigma = Eigen::Vector3d::Zero();  // sqrt of the covariance proxy's diagonal
 };
 
@@ -77,25 +170,29 @@ class Localizer {
   ~Localizer();
 
   // Starts at `pose` (map frame) at time t; `odometry` (may be nullptr) must outlive the localizer.
+  // The velocity is unknown: the next scan is searched as far as the vehicle could have gone.
   void start(const Eigen::Isometry3d& pose, double t, const OdometryBuffer* odometry);
   // One scan (sensor frame) taken at t, with its rings (needed when fewer beams are kept).
   ScanReport process(double t, const Scan& scan, const std::vector<std::uint16_t>& rings);
-  // Registers an already prepared scan: register_at(t, points, pose_at(t)), then fuse().
+  // Registers an already prepared scan: register_at(t, points, predict(t)), then fuse().
   ScanReport process_prepared(double t, const std::vector<Eigen::Vector3f>& points);
 
-  // The two halves of process_prepared, for callers that run registration on another thread than
-  // the one reading poses: register_at touches only the ROI map (not the filter), fuse() only the
-  // filter and the health state.
-  ScanReport register_at(double t, const std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& predicted);
+  // The halves of process_prepared, for callers that run registration on another thread than the
+  // one reading poses: predict() reads the odometry (under the caller's lock), register_at touches
+  // only the maps and the LiDAR odometry, fuse() the filter and the health state.
+  Prediction predict(double t) const;
+  ScanReport register_at(double t, const std::vector<Eigen::Vector3f>& points, const Prediction& prediction);
   void fuse(ScanReport& report);
 
   // The fused pose at any time (odometry rate where there is odometry).
   Eigen::Isometry3d pose_at(double t) const { return fusion_.predict(t); }
+  // The protection level of the last scan (metres), and of a pose read between scans.
+  double protection_m() const { return protection_m_; }
   const RoiMap* map() const { return map_.get(); }
   const LocalizerConfig& config() const { return cfg_; }
-  // Brings the ROI map to the tiles around `center` (done by process(); public for start-up).
+  // Brings the ROI maps to the tiles around `center` (done by process(); public for start-up).
   void update_map(const Eigen::Vector2d& center);
-  // Start-up from a rough pose: search_pose over the tiles around it with the first scan, then start.
+  // Start-up from a rough pose: a search over the tiles around it with the first scan, then start.
   // Returns false (and starts at the guess) when the search finds nothing.
   bool start_near(const Eigen::Isometry3d& guess, double t, const OdometryBuffer* odometry, const Scan& scan,
                   const std::vector<std::uint16_t>& rings, const registration::PoseSearch& search = {});
@@ -104,11 +201,27 @@ class Localizer {
   LocalizerConfig cfg_;
   double tile_size_;
   TileProvider tiles_;
-  std::unique_ptr<RoiMap> map_;
+  std::unique_ptr<RoiMap> map_, coarse_;
   Fusion fusion_;
-  int unfused_streak_ = 0;
+  LidarOdometry odometry_;
+  // The state between scans (written by fuse on the worker; register_at reads it on the same thread).
+  Uncertainty posterior_;      // after the last scan
+  bool velocity_known_ = false, previous_fused_ = false, relocalizing_ = false;
+  // The last scan whose position was measured, from which momentum's uncertainty grows.
+  double anchor_t_ = 0, anchor_speed_ = 0, anchor_speed_sigma_ = 0, anchor_yaw_rate_sigma_ = 0;
+  Uncertainty anchor_;
+  double last_t_ = 0;
+  Eigen::Isometry3d last_pose_ = Eigen::Isometry3d::Identity();
+  int unfused_streak_ = 0, unverified_streak_ = 0;
   bool lost_ = false;
-  std::vector<double> recent_share_, recent_rms_;  // for the divergence detector
+  double protection_m_ = 0;
+  std::vector<double> recent_share_, recent_rms_;  // of verified scans, for the relative checks
+  std::vector<Eigen::Vector3f> scan_;              // the scan between register_at and fuse
+
+  Uncertainty grow(double t, const Prediction& p) const;
+  void set_anchor(double t, const Uncertainty& u, bool velocity_known, double speed);
+  void check_integrity(const std::vector<Eigen::Vector3f>& points, ScanReport& r,
+                       std::vector<registration::Candidate> alternatives) const;
 };
 
 // The scan's points as registration input (float, sensor frame).

@@ -19,6 +19,9 @@ enum class OdometrySource { None, Encoder, Poses };
 
 struct ReplayOptions {
   std::vector<std::size_t> scans;  // dataset indices to localize, in order (the first starts)
+  // Seconds added to each of those scans' times (empty: none): a stretch cut out with the clock
+  // closed over it is a kidnapping with no hint. Only without odometry (its times are not shifted).
+  std::vector<double> time_shift;
   OdometrySource odometry = OdometrySource::None;
   bool rings = false;           // hand the rings over (needed when fewer beams are kept)
   bool realtime = false;        // wait for each scan's time on the wall clock

@@ -22,6 +22,7 @@ namespace pl::client {
 struct RoiMapConfig {
   double cell_m = 1.0;  // hash cell edge, rounded so that cells divide the tile size; nearest-neighbour
                         // search is exact within cell_m / 2 and approximate up to cell_m
+  double thin_m = 0;    // > 0: one point (with its normal) per thin_m voxel of each tile, for a coarse map
 };
 
 class RoiMap {
@@ -43,6 +44,7 @@ class RoiMap {
   std::size_t cells() const { return map_->cells(); }
 
  private:
+  double thin_m_ = 0;
   std::unique_ptr<registration::PointMap> map_;
   std::map<TileKey, std::string> held_;  // tile -> content hash
 };

@@ -1,0 +1,59 @@
+#include "pl/client/lidar_odometry.hpp"
+
+#include "pl/common/error.hpp"
+#include "pl/registration/normals.hpp"
+#include "pl/registration/pose_search.hpp"
+
+namespace pl::client {
+
+LidarOdometry::LidarOdometry(const LidarOdometryConfig& cfg) : cfg_(cfg) {
+  if (cfg.scans < 1) throw Error("LidarOdometryConfig::scans must be at least 1");
+  if (!(cfg.cell_m > 0) || !(cfg.normal_radius_m > 0)) throw Error("LidarOdometryConfig: cell_m and normal_radius_m must be positive");
+}
+
+LidarOdometry::~LidarOdometry() = default;
+
+void LidarOdometry::reset() {
+  fine_.reset();
+  coarse_.reset();
+  scans_.clear();
+}
+
+registration::IcpResult LidarOdometry::track(const std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& guess,
+                                             bool wide) const {
+  registration::IcpResult r;
+  if (!fine_) {
+    r.reject_reason = "no earlier scan";
+    return r;
+  }
+  r = wide ? registration::register_coarse_to_fine(*coarse_, *fine_, points, guess, cfg_.icp)
+           : registration::register_scan(*fine_, points, guess, cfg_.icp);
+  if (r.accepted && r.inlier_share < cfg_.min_inlier_share) {
+    r.accepted = false;
+    r.reject_reason = "the scan does not fit the previous ones";
+  }
+  return r;
+}
+
+void LidarOdometry::add(const std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& pose) {
+  Placed placed;
+  placed.points.reserve(points.size());
+  for (const Eigen::Vector3f& p : points) placed.points.push_back(pose * p.cast<double>());
+  placed.normals = registration::estimate_normals(placed.points, cfg_.normal_radius_m);
+  // A jump of kilometres (a new start elsewhere) empties the local map.
+  if (fine_ && (pose.translation() - fine_->anchor()).norm() > 2000.0) scans_.clear();
+  scans_.push_back(std::move(placed));
+  while (static_cast<int>(scans_.size()) > cfg_.scans) scans_.pop_front();
+  std::vector<Eigen::Vector3d> all;
+  std::vector<Eigen::Vector3f> normals;
+  for (const Placed& s : scans_) {
+    all.insert(all.end(), s.points.begin(), s.points.end());
+    normals.insert(normals.end(), s.normals.begin(), s.normals.end());
+  }
+  fine_ = std::make_unique<registration::PointMap>(pose.translation(), cfg_.cell_m);
+  coarse_ = std::make_unique<registration::PointMap>(pose.translation(), 2.0);
+  fine_->add(1, all, normals);
+  coarse_->add(1, all, normals);
+}
+
+}  // namespace pl::client
