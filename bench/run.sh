@@ -32,6 +32,10 @@ else
 fi
 
 echo
+echo "== localize_rates: drive 0005 at 1-4x speed, LiDAR only, and a kidnapping"
+bash "$(dirname "$0")/localize_rates.sh" "$bin" "$root/build/bench"
+
+echo
 echo "== localize_kitti00: the whole product on the KITTI 00 trajectory, all 4,541 scans (pl-sim data)"
 bash "$(dirname "$0")/localize_kitti00.sh" "$bin" "$root/build/bench"
 

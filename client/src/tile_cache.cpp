@@ -104,9 +104,13 @@ std::int64_t check_file(const Db& db) {
   sqlite::check_identity(db, h, kSchemaVersion);
   if (h.user_version == kSchemaVersion) {
     sqlite::check_schema(db, expected_schema(), "its tables are not the ones this software makes");
-    // The switch to WAL writes the header: check the whole file first (once: WAL is kept).
-    if (sqlite::journal_mode(db) != "wal") sqlite::quick_check(db);
+  } else if (sqlite::query_int(db, "SELECT count(*) FROM sqlite_schema") != 0) {
+    // Schema version 0 is a new cache: one that already has tables is something else.
+    throw Error(db.path() + ": not a tile cache (schema version 0 but it has tables): delete it or choose another cache_path");
   }
+  // The switch to WAL and the tables of a new cache write the file: check the whole of it first
+  // (once: WAL is kept).
+  if (sqlite::journal_mode(db) != "wal") sqlite::quick_check(db);
   snapshot.end();
   return h.user_version;
 }

@@ -1,0 +1,74 @@
+#!/usr/bin/env bash
+# The localizer on real data at one to four times the speed: drive 0005's odd scans (map from the
+# even ones at their OXTS poses, 16 of 64 beams, LiDAR only, started from the first scan's pose with
+# no velocity), keeping every k-th -- the same street driven k times faster -- with and without LiDAR
+# odometry; then a kidnapping (30 odd scans, about 24 m, cut out; with the clock running on, and
+# closed over the cut: no hint at all). Per run: APE mean / median / max (3D, as pl-eval ape), scans
+# more than 0.5 m off and how many of them were reported ok (must be 0), status counts, the share of
+# scans whose horizontal error exceeds their protection level (a horizontal bound), the median
+# protection level, and the median registration time (LiDAR odometry and integrity checks included).
+#   bench/localize_rates.sh BIN_DIR WORK_DIR
+set -euo pipefail
+bin=${1:?usage: localize_rates.sh BIN_DIR WORK_DIR}
+work=${2:?usage: localize_rates.sh BIN_DIR WORK_DIR}
+root=$(cd "$(dirname "$0")/.." && pwd)
+data=$("$root/tools/shared-data.sh" 2>/dev/null || true)
+drive="$data/kitti-raw-2011_09_26_drive_0005_sync"
+if [[ -z "$data" || ! -d "$drive/velodyne_points/data" ]]; then
+  echo "localize_rates: skipped, the real data is absent (tools/shared-data.sh finds no drive 0005)"
+  exit 0
+fi
+# The map of the even scans (made by localize_kitti05.sh, or here).
+k05="$work/k05"
+mkdir -p "$k05/rates"
+if [[ ! -f "$k05/maps.sqlite" ]]; then
+  "$bin/pl-map" build --dataset "$drive" --poses gt --every 2 --out "$k05/even.pcd" >/dev/null
+  "$bin/pl-map" tile --cloud "$k05/even.pcd" --db "$k05/maps.sqlite.partial" --map k05 >/dev/null
+  "$bin/pl-map" publish --db "$k05/maps.sqlite.partial" --map k05 --version 1 >/dev/null
+  mv "$k05/maps.sqlite.partial" "$k05/maps.sqlite"
+fi
+"$bin/pl-dataset" poses "$drive" --out "$k05/gt.txt" >/dev/null
+awk 'NR % 2 == 0' "$k05/gt.txt" >"$k05/gt_odd.txt"
+export PL_NO_PROGRESS=1 OMP_NUM_THREADS=1
+
+median() { sort -g | awk '{ a[NR] = $1 } END { if (NR % 2) print a[(NR + 1) / 2]; else print (a[NR / 2] + a[NR / 2 + 1]) / 2 }'; }
+
+# One run: pl-localize with the given arguments, then the per-scan errors joined with the status and
+# protection columns of its CSV (the KITTI output has one line per scan, as the ground truth given).
+run() {
+  local name=$1 gt=$2
+  shift 2
+  local out="$k05/rates/$name"
+  out=${out// /_}
+  out=${out//,/}
+  "$bin/pl-localize" --dataset "$drive" --db "$k05/maps.sqlite" --map k05 --beams 16 --scans odd --odometry lidar --init gt \
+    --out "$out.tum" --kitti-out "$out.txt" --timing "$out.csv" "$@" >"$out.log"
+  # Per scan: error, protection level, registration ms, status.
+  awk '
+    FNR == 1 { file++ }
+    file == 1 { ex[FNR] = $4; ey[FNR] = $8; ez[FNR] = $12; n = FNR; next }
+    file == 2 { gx[FNR] = $4; gy[FNR] = $8; gz[FNR] = $12; next }
+    { split($0, f, ",") }
+    FNR == 1 { for (i = 1; i in f; i++) col[f[i]] = i; next }
+    { k = FNR - 1; h = (ex[k] - gx[k]) ^ 2 + (ey[k] - gy[k]) ^ 2
+      printf "%.4f %s %s %s %.4f\n", sqrt(h + (ez[k] - gz[k]) ^ 2), f[col["protection_m"]], f[col["registration_ms"]] + f[col["odometry_ms"]] + f[col["integrity_ms"]], f[col["status"]],
+        sqrt(h) }' "$out.txt" "$gt" "$out.csv" >"$out.scans"
+  local summary
+  summary=$(awk '{ n++; s += $1; if ($1 > m) m = $1; if ($1 > 0.5) { far++; if ($4 == "ok") lie++ }
+                   if ($5 > $2) v++; ok += $4 == "ok"; dg += $4 == "degraded"; ls += $4 == "lost" }
+                 END { printf "%d | %.3f | %%s | %.2f | %d | %d | %d / %d / %d | %.1f %%%%", n, s / n, m, far, lie, ok, dg, ls, 100 * v / n }' "$out.scans")
+  printf "| %s | $summary | %.2f | %.1f |\n" "$name" "$(cut -d' ' -f1 "$out.scans" | median)" "$(cut -d' ' -f2 "$out.scans" | median)" \
+    "$(cut -d' ' -f3 "$out.scans" | median)"
+}
+
+echo "| run | scans | APE mean | median | max | > 0.5 m | of them ok | ok / degraded / lost | error > PL | PL median | ms median (odometry + registration + checks) |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|"
+for lo in on off; do
+  for k in 1 2 3 4; do
+    awk -v k="$k" '(NR - 1) % k == 0' "$k05/gt_odd.txt" >"$k05/rates/gt_$k.txt"
+    run "every $k, odometry $lo" "$k05/rates/gt_$k.txt" --every "$k" --lidar-odometry "$lo"
+  done
+done
+awk '!((NR - 1) >= 30 && (NR - 1) < 60)' "$k05/gt_odd.txt" >"$k05/rates/gt_cut.txt"
+run "cut 30, clock on" "$k05/rates/gt_cut.txt" --cut 30,30
+run "cut 30, clock closed" "$k05/rates/gt_cut.txt" --cut 30,30 --cut-clock close
