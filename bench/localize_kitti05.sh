@@ -13,26 +13,8 @@ work=${2:?usage: localize_kitti05.sh BIN_DIR WORK_DIR [--quick N]}
 shift 2
 quick=""
 if [[ "${1:-}" == "--quick" ]]; then quick=${2:?--quick takes a number of scans}; fi
-root=$(cd "$(dirname "$0")/.." && pwd)
-data=$("$root/tools/shared-data.sh" 2>/dev/null || true)
-drive="$data/kitti-raw-2011_09_26_drive_0005_sync"
-if [[ -z "$data" || ! -d "$drive/velodyne_points/data" ]]; then
-  echo "bench_localize: skipped, the real data is absent (tools/shared-data.sh finds no drive 0005)"
-  exit 0
-fi
-k05="$work/k05"
-mkdir -p "$k05"
-k05=$(cd "$k05" && pwd)
-
-# The map: even scans at their ground-truth poses, 0.2 m voxels, tiles in a SQLite store (once).
-if [[ ! -f "$k05/maps.sqlite" ]]; then
-  echo "preparing the map of the even scans in $k05 (once)"
-  rm -f "$k05/maps.sqlite.partial"*
-  "$bin/pl-map" build --dataset "$drive" --poses gt --every 2 --out "$k05/even.pcd" >/dev/null
-  "$bin/pl-map" tile --cloud "$k05/even.pcd" --db "$k05/maps.sqlite.partial" --map k05 >/dev/null
-  "$bin/pl-map" publish --db "$k05/maps.sqlite.partial" --map k05 --version 1 >/dev/null
-  mv "$k05/maps.sqlite.partial" "$k05/maps.sqlite"
-fi
+source "$(dirname "$0")/k05_map.sh"
+k05_map bench_localize "$bin" "$work" || exit 0
 
 # Ours against PCL, scan by scan, one thread.
 export OMP_NUM_THREADS=1
@@ -46,8 +28,7 @@ fi
 # ground truth (every second line of the drive's poses, from the second: frames 1, 3, 5, ...).
 echo
 echo "whole product: pl-localize --beams 16 --scans odd --odometry lidar --init gt, then pl-eval ape"
-"$bin/pl-dataset" poses "$drive" --out "$k05/gt.txt" >/dev/null
-awk 'NR % 2 == 0' "$k05/gt.txt" | head -n "${quick:-1000000}" >"$k05/gt_odd.txt"
+if [[ -n "$quick" ]]; then head -n "$quick" "$k05/gt_odd.txt" >"$k05/gt_odd.quick" && mv "$k05/gt_odd.quick" "$k05/gt_odd.txt"; fi
 export PL_NO_PROGRESS=1
 "$bin/pl-localize" --dataset "$drive" --db "$k05/maps.sqlite" --map k05 --beams 16 --scans odd --odometry lidar \
   --init gt ${quick:+--count "$quick"} --out "$k05/odd.tum" --kitti-out "$k05/odd.txt" --timing "$k05/odd_timing.csv"

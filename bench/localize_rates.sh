@@ -11,24 +11,9 @@
 set -euo pipefail
 bin=${1:?usage: localize_rates.sh BIN_DIR WORK_DIR}
 work=${2:?usage: localize_rates.sh BIN_DIR WORK_DIR}
-root=$(cd "$(dirname "$0")/.." && pwd)
-data=$("$root/tools/shared-data.sh" 2>/dev/null || true)
-drive="$data/kitti-raw-2011_09_26_drive_0005_sync"
-if [[ -z "$data" || ! -d "$drive/velodyne_points/data" ]]; then
-  echo "localize_rates: skipped, the real data is absent (tools/shared-data.sh finds no drive 0005)"
-  exit 0
-fi
-# The map of the even scans (made by localize_kitti05.sh, or here).
-k05="$work/k05"
+source "$(dirname "$0")/k05_map.sh"
+k05_map localize_rates "$bin" "$work" || exit 0
 mkdir -p "$k05/rates"
-if [[ ! -f "$k05/maps.sqlite" ]]; then
-  "$bin/pl-map" build --dataset "$drive" --poses gt --every 2 --out "$k05/even.pcd" >/dev/null
-  "$bin/pl-map" tile --cloud "$k05/even.pcd" --db "$k05/maps.sqlite.partial" --map k05 >/dev/null
-  "$bin/pl-map" publish --db "$k05/maps.sqlite.partial" --map k05 --version 1 >/dev/null
-  mv "$k05/maps.sqlite.partial" "$k05/maps.sqlite"
-fi
-"$bin/pl-dataset" poses "$drive" --out "$k05/gt.txt" >/dev/null
-awk 'NR % 2 == 0' "$k05/gt.txt" >"$k05/gt_odd.txt"
 export PL_NO_PROGRESS=1 OMP_NUM_THREADS=1
 
 median() { sort -g | awk '{ a[NR] = $1 } END { if (NR % 2) print a[(NR + 1) / 2]; else print (a[NR / 2] + a[NR / 2 + 1]) / 2 }'; }

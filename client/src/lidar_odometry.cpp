@@ -17,6 +17,8 @@ void LidarOdometry::reset() {
   fine_.reset();
   coarse_.reset();
   scans_.clear();
+  points_.clear();
+  normals_.clear();
 }
 
 registration::IcpResult LidarOdometry::track(const std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& guess,
@@ -25,6 +27,10 @@ registration::IcpResult LidarOdometry::track(const std::vector<Eigen::Vector3f>&
   if (!fine_) {
     r.reject_reason = "no earlier scan";
     return r;
+  }
+  if (wide && !coarse_) {
+    coarse_ = std::make_unique<registration::PointMap>(fine_->anchor(), 2.0);
+    coarse_->add(1, points_, normals_);
   }
   r = wide ? registration::register_coarse_to_fine(*coarse_, *fine_, points, guess, cfg_.icp)
            : registration::register_scan(*fine_, points, guess, cfg_.icp);
@@ -44,16 +50,15 @@ void LidarOdometry::add(const std::vector<Eigen::Vector3f>& points, const Eigen:
   if (fine_ && (pose.translation() - fine_->anchor()).norm() > 2000.0) scans_.clear();
   scans_.push_back(std::move(placed));
   while (static_cast<int>(scans_.size()) > cfg_.scans) scans_.pop_front();
-  std::vector<Eigen::Vector3d> all;
-  std::vector<Eigen::Vector3f> normals;
+  points_.clear();
+  normals_.clear();
   for (const Placed& s : scans_) {
-    all.insert(all.end(), s.points.begin(), s.points.end());
-    normals.insert(normals.end(), s.normals.begin(), s.normals.end());
+    points_.insert(points_.end(), s.points.begin(), s.points.end());
+    normals_.insert(normals_.end(), s.normals.begin(), s.normals.end());
   }
   fine_ = std::make_unique<registration::PointMap>(pose.translation(), cfg_.cell_m);
-  coarse_ = std::make_unique<registration::PointMap>(pose.translation(), 2.0);
-  fine_->add(1, all, normals);
-  coarse_->add(1, all, normals);
+  fine_->add(1, points_, normals_);
+  coarse_.reset();
 }
 
 }  // namespace pl::client

@@ -50,6 +50,15 @@ const char* health_name(Health h) {
   return "?";
 }
 
+const char* basin_name(Basin b) {
+  switch (b) {
+    case Basin::Fine: return "fine";
+    case Basin::Coarse: return "coarse";
+    case Basin::Search: return "search";
+  }
+  return "?";
+}
+
 std::vector<Eigen::Vector3f> to_points(const Scan& scan) {
   std::vector<Eigen::Vector3f> out;
   out.reserve(scan.size());
@@ -78,7 +87,6 @@ void Localizer::start(const Eigen::Isometry3d& pose, double t, const OdometryBuf
   set_anchor(t, posterior_, false, 0.0);
   last_t_ = t;
   last_pose_ = pose;
-  protection_m_ = cfg_.integrity.map_error_m + 3.0 * cfg_.motion.fix_floor_m;
   if (!map_ || (pose.translation() - map_->anchor()).head<2>().norm() > 5000.0) {
     map_ = std::make_unique<RoiMap>(tile_size_, pose.translation(), cfg_.map);
     coarse_ = std::make_unique<RoiMap>(tile_size_, pose.translation(), cfg_.coarse_map);
@@ -153,6 +161,14 @@ void Localizer::set_anchor(double t, const Uncertainty& u, bool velocity_known, 
   anchor_yaw_rate_sigma_ = (velocity_known ? m.yaw_rate_sigma_dps : m.max_yaw_rate_dps / 3.0) * kDeg;
 }
 
+void Localizer::relocalize(double t, const Uncertainty& u) {
+  const MotionConfig& m = cfg_.motion;
+  relocalizing_ = true;
+  const double reach = m.relocalize_m / 3.0;
+  posterior_ = {std::max(reach, u.along), std::max(reach, u.across), std::max(m.relocalize_deg * kDeg / 3.0, u.yaw)};
+  set_anchor(t, posterior_, velocity_known_, 0.0);
+}
+
 ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& points, const Prediction& prediction) {
   if (!map_) throw Error("localizer: register_at() before start()");
   const MotionConfig& m = cfg_.motion;
@@ -199,13 +215,13 @@ ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& 
   const double r3 = 3.0 * u.horizontal(), y3 = 3.0 * u.yaw / kDeg;
   std::vector<registration::Candidate> alternatives;
   if (r3 <= m.fine_basin_m && y3 <= m.fine_basin_deg) {
-    r.basin = "fine";
+    r.basin = Basin::Fine;
     r.icp = registration::register_scan(map_->points_map(), points, guess, cfg_.icp);
   } else if (r3 <= m.coarse_basin_m && y3 <= m.coarse_basin_deg) {
-    r.basin = "coarse";
+    r.basin = Basin::Coarse;
     r.icp = registration::register_coarse_to_fine(coarse_->points_map(), map_->points_map(), points, guess, cfg_.icp);
   } else {
-    r.basin = "search";
+    r.basin = Basin::Search;
     registration::PoseSearch s;
     const bool jumped = relocalizing_;
     s.position_step_m = 2.0;
@@ -227,10 +243,9 @@ ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& 
     }
   }
   r.register_ms = now_ms() - t0;
-  for (int i = 0; i < 3; ++i) r.position_sigma[i] = std::sqrt(std::max(0.0, r.icp.covariance(i, i)));
-
   t0 = now_ms();
   check_integrity(points, r, alternatives);
+  for (int i = 0; i < 3; ++i) r.position_sigma[i] = std::sqrt(std::max(0.0, r.icp.covariance(i, i)));
   r.integrity_ms = now_ms() - t0;
   scan_ = points;
   return r;
@@ -242,7 +257,7 @@ void Localizer::check_integrity(const std::vector<Eigen::Vector3f>& points, Scan
   if (!r.icp.accepted) return;
   // Perturbed seeds round the solution: along the direction the registration holds least and across
   // it, each with a turn. (A search has its own alternatives.)
-  if (std::string(r.basin) != "search" && c.seeds > 0) {
+  if (r.basin != Basin::Search && c.seeds > 0) {
     const Eigen::Matrix2d xy = r.icp.covariance.topLeftCorner<2, 2>();
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(xy);
     Eigen::Vector2d weak = es.eigenvectors().col(1);
@@ -284,6 +299,7 @@ void Localizer::check_integrity(const std::vector<Eigen::Vector3f>& points, Scan
     r.alternative_m = horizontal_distance(top->icp.pose, r.icp.pose);
     r.ambiguous = top->score >= c.ambiguity_ratio * best;
   }
+  r.registration_sigma_m = registration_sigma(r.icp, c.independent_pairs);
   // Absolute and relative checks.
   const bool absolute = r.icp.inlier_share >= c.min_share && r.icp.rms_m <= c.max_rms_m;
   bool relative = true;
@@ -293,7 +309,7 @@ void Localizer::check_integrity(const std::vector<Eigen::Vector3f>& points, Scan
   r.consistent = relative;
   r.verified = absolute && relative && !r.ambiguous;
   // A pose found by a search is confirmed by the next scan before it is ok.
-  const bool searched = std::string(r.basin) == "search";
+  const bool searched = r.basin == Basin::Search;
   r.integrity = r.verified && !r.resolved && !searched;
   if (!absolute) r.note = r.icp.inlier_share < c.min_share ? "too few scan points on a map surface" : "residual too large";
   else if (!relative) r.note = "the fit is worse than the recent scans'";
@@ -302,7 +318,7 @@ void Localizer::check_integrity(const std::vector<Eigen::Vector3f>& points, Scan
   else if (searched) r.note = "found by a search: to be confirmed by the next scan";
   // The protection level. Unverified for another reason than ambiguity, the error is known only to be
   // within the reach of the search that would find the vehicle again.
-  r.protection_m = c.map_error_m + c.sigmas * registration_sigma(r.icp, c.independent_pairs) + (r.ambiguous ? r.alternative_m : 0.0);
+  r.protection_m = c.map_error_m + c.sigmas * r.registration_sigma_m + (r.ambiguous ? r.alternative_m : 0.0);
   if (!absolute || !relative) r.protection_m = c.map_error_m + cfg_.motion.relocalize_m;
 }
 
@@ -322,14 +338,12 @@ void Localizer::fuse(ScanReport& r) {
   r.map_outdated = r.icp.accepted && (1.0 - r.icp.inlier_share) > cfg_.outdated_share;
   // From an uncertain prediction (a coarse basin or a search) only a verified result is fused: that is
   // where wrong minima are.
-  const bool trusted_basin = std::string(r.basin) == "fine";
-  const bool take = r.icp.accepted && r.plausible && gate && (trusted_basin || r.verified);
+  const bool take = r.icp.accepted && r.plausible && gate && (r.basin == Basin::Fine || r.verified);
   r.gated = r.icp.accepted && r.plausible && !gate;
-  r.diverging = r.gated;
   // A relocalization search that moved the vehicle relocated it: what momentum and the local map
   // knew of the motion belongs to the old place.
   const bool relocated =
-      take && relocalizing_ && std::string(r.basin) == "search" && horizontal_distance(r.predicted, r.icp.pose) > m.lost_m;
+      take && relocalizing_ && r.basin == Basin::Search && horizontal_distance(r.predicted, r.icp.pose) > m.lost_m;
   if (relocated) {
     fusion_.restart(r.icp.pose, t);
     odometry_.reset();
@@ -340,7 +354,7 @@ void Localizer::fuse(ScanReport& r) {
     r.fused_lidar = true;
     unfused_streak_ = 0;
     lost_ = false;
-    const double s = std::max(m.fix_floor_m, registration_sigma(r.icp, c.independent_pairs));
+    const double s = std::max(m.fix_floor_m, r.registration_sigma_m);
     const double yaw_s = std::max(m.fix_floor_deg * kDeg, std::sqrt(std::max(0.0, r.icp.covariance(5, 5))));
     posterior_ = {s, s, yaw_s};
     // Two fused scans in a row give momentum its velocity; LiDAR odometry measures it.
@@ -378,11 +392,8 @@ void Localizer::fuse(ScanReport& r) {
   // A scan neither the map nor the LiDAR odometry could place, fitting the map badly at the
   // prediction: the vehicle may be elsewhere. Search round the last pose from the next scan on.
   if (!take && !r.odometry_ok && (!r.icp.accepted || !r.plausible)) {
-    relocalizing_ = true;
+    relocalize(t, u);
     lost_ = true;
-    const double reach = m.relocalize_m / 3.0;
-    posterior_ = {std::max(reach, u.along), std::max(reach, u.across), std::max(m.relocalize_deg * kDeg / 3.0, u.yaw)};
-    set_anchor(t, posterior_, velocity_known_, 0.0);
     r.protection_m = c.map_error_m + m.relocalize_m;
     r.note = "the scan fits neither the map here nor the recent scans: searching " + std::to_string(static_cast<int>(m.relocalize_m)) +
              " m round";
@@ -390,15 +401,13 @@ void Localizer::fuse(ScanReport& r) {
   // Scans that fit worse than the recent ones, twice in a row: search again round the last pose.
   unverified_streak_ = r.icp.accepted && r.plausible && !r.consistent ? unverified_streak_ + 1 : 0;
   if (unverified_streak_ >= 2 && !relocalizing_) {
-    relocalizing_ = true;
+    relocalize(t, posterior_);
     unverified_streak_ = 0;
-    posterior_ = {m.relocalize_m / 3.0, m.relocalize_m / 3.0, std::max(m.relocalize_deg * kDeg / 3.0, posterior_.yaw)};
-    set_anchor(t, posterior_, velocity_known_, 0.0);
   } else if (take && r.verified) {
     relocalizing_ = false;
   }
   // A verified result of a search is the reference the next scans are compared with.
-  if (take && r.verified && std::string(r.basin) == "search") {
+  if (take && r.verified && r.basin == Basin::Search) {
     recent_share_.assign(1, r.icp.inlier_share);
     recent_rms_.assign(1, r.icp.rms_m);
   }
@@ -410,7 +419,6 @@ void Localizer::fuse(ScanReport& r) {
     r.health = Health::Degraded;
     if (r.note.empty()) r.note = r.map_outdated ? "map looks outdated" : "not verified";
   }
-  protection_m_ = r.protection_m;
 }
 
 bool Localizer::start_near(const Eigen::Isometry3d& guess, double t, const OdometryBuffer* odometry, const Scan& scan,

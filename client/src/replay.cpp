@@ -105,7 +105,7 @@ ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOption
       std::fprintf(o.timing, "%zu,%.6f,%.3f,%.3f,%.3f,%.3f,%zu,%d,%d,%.4f,%.4f,%.4f,%.4f,%.5f,%.3f,%.3f,%s,%s,%.4f,%.4f,%.3f,%s,%d,%s\n", i,
                    t, r.register_ms, r.prepare_ms, r.map_ms, latency * 1000.0, r.scan_points, r.icp.iterations, r.icp.pairs,
                    r.icp.inlier_share, r.icp.rms_m, r.icp.conditioning, (r.predicted.translation() - r.icp.pose.translation()).norm(),
-                   r.position_sigma.norm(), r.odometry_ms, r.integrity_ms, r.motion, r.basin, r.uncertainty.horizontal(),
+                   r.position_sigma.norm(), r.odometry_ms, r.integrity_ms, r.motion, basin_name(r.basin), r.uncertainty.horizontal(),
                    r.protection_m, r.alternative_m, health_name(r.health), r.fused_lidar ? 1 : 0, r.note.c_str());
     if (o.progress) o.progress(k + 1, o.scans.size());
   }

@@ -21,14 +21,6 @@
 
 namespace pl::store {
 
-using sqlite::damaged;
-using sqlite::Db;
-using sqlite::exec;
-using sqlite::plain;
-using sqlite::Row;
-using sqlite::Stmt;
-using sqlite::WriteScope;
-
 namespace detail {
 
 struct Migration {

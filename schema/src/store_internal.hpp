@@ -34,3 +34,16 @@ std::optional<std::string> tile_hash(const sqlite::Db& db, std::int64_t map_id, 
 void drop_blob_if_unused(const sqlite::Db& db, const std::string& hash);
 
 }  // namespace pl::store::detail
+
+namespace pl::store {
+
+// The SQLite toolkit names both halves of the store use.
+using sqlite::damaged;
+using sqlite::Db;
+using sqlite::exec;
+using sqlite::plain;
+using sqlite::Row;
+using sqlite::Stmt;
+using sqlite::WriteScope;
+
+}  // namespace pl::store

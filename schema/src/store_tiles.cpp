@@ -17,13 +17,6 @@
 namespace pl::store {
 
 using namespace detail;
-using sqlite::damaged;
-using sqlite::Db;
-using sqlite::exec;
-using sqlite::plain;
-using sqlite::Row;
-using sqlite::Stmt;
-using sqlite::WriteScope;
 
 // ---- tiles ---------------------------------------------------------------------------------------
 

@@ -9,6 +9,7 @@
 
 #include "pl/client/localizer.hpp"
 #include "pl/common/pose.hpp"
+#include "map_tiles.hpp"
 #include "scene.hpp"
 
 namespace {
@@ -16,17 +17,8 @@ namespace {
 using pl::client::Health;
 using pl::client::Localizer;
 using pl::client::LocalizerConfig;
-using pl::client::MapTile;
 using pl::client::ScanReport;
 using pl::test::Surface;
-
-std::vector<MapTile> tiles_of(const std::vector<Surface>& surfaces) {
-  std::vector<MapTile> out;
-  for (auto& [key, cloud] : pl::test::surface_tiles(surfaces, 0.2, 20.0))
-    out.push_back({key, std::to_string(key.tx) + "," + std::to_string(key.ty),
-                   std::make_shared<const pl::TileCloud>(std::move(cloud))});
-  return out;
-}
 
 // A street whose only structure along it repeats every `period` metres: ground, two plain walls
 // and posts in line on both sides. Any pose a whole period away explains a scan as well.
@@ -79,7 +71,7 @@ Eigen::Isometry3d at(double x, double y = 0.0, double yaw_deg = 0.0) { return pl
 
 TEST(Integrity, AStartWithNoVelocityFindsAVehicleAtTwentyFiveMetresASecond) {
   const auto surfaces = pl::test::street();
-  const auto tiles = tiles_of(surfaces);
+  const auto tiles = pl::test::map_tiles(surfaces);
   LocalizerConfig cfg;
   Localizer loc(cfg, 20.0, [&](const Eigen::Vector2d&, double) { return tiles; });
   std::vector<Eigen::Isometry3d> poses;
@@ -87,20 +79,20 @@ TEST(Integrity, AStartWithNoVelocityFindsAVehicleAtTwentyFiveMetresASecond) {
   const Drive d = drive(loc, surfaces, poses, poses.front());
   // The second scan is 2.5 m from the start: beyond any fixed correction limit, inside the
   // uncertainty of a start with no velocity, which is searched.
-  EXPECT_STREQ(d.reports[1].basin, "search");
+  EXPECT_EQ(d.reports[1].basin, pl::client::Basin::Search);
   for (std::size_t i = 0; i < d.reports.size(); ++i) {
     EXPECT_TRUE(d.reports[i].fused_lidar) << "scan " << i << ": " << d.reports[i].note;
     EXPECT_LT(error_of(d.reports[i], d.truth[i]), 0.1) << "scan " << i;
   }
   // Once the velocity is known the search is over: plain ICP from a measured prediction.
-  EXPECT_STREQ(d.reports.back().basin, "fine");
+  EXPECT_EQ(d.reports.back().basin, pl::client::Basin::Fine);
   EXPECT_EQ(d.reports.back().health, Health::Ok) << d.reports.back().note;
   d.expect_honest();
 }
 
 TEST(Integrity, AStreetThatRepeatsEveryTwoMetresIsNeverOk) {
   const auto surfaces = periodic_street(2.0);
-  const auto tiles = tiles_of(surfaces);
+  const auto tiles = pl::test::map_tiles(surfaces);
   LocalizerConfig cfg;
   Localizer loc(cfg, 20.0, [&](const Eigen::Vector2d&, double) { return tiles; });
   std::vector<Eigen::Isometry3d> poses;
@@ -116,7 +108,7 @@ TEST(Integrity, AStreetThatRepeatsEveryTwoMetresIsNeverOk) {
 
 TEST(Integrity, AKidnappingIsReportedAndTheVehicleFoundAgain) {
   const auto surfaces = pl::test::street();
-  const auto tiles = tiles_of(surfaces);
+  const auto tiles = pl::test::map_tiles(surfaces);
   LocalizerConfig cfg;
   cfg.motion.relocalize_m = 30.0;  // the search round the last pose (smaller than the default: test time)
   cfg.motion.max_seeds = 900;
@@ -143,10 +135,10 @@ TEST(Integrity, AMapThatJumpsUnderTheVehicleDoesNotMoveIt) {
   // 1.5 m off (as a wrong minimum would be), the estimate does not follow it, and nothing is ok
   // beyond its bound.
   const auto surfaces = pl::test::street();
-  const auto tiles = tiles_of(surfaces);
+  const auto tiles = pl::test::map_tiles(surfaces);
   std::vector<Surface> moved = surfaces;
   for (auto& s : moved) s.origin.x() += 1.5;
-  const auto shifted = tiles_of(moved);
+  const auto shifted = pl::test::map_tiles(moved);
   bool shift = false;
   LocalizerConfig cfg;
   Localizer loc(cfg, 20.0, [&](const Eigen::Vector2d&, double) { return shift ? shifted : tiles; });

@@ -17,6 +17,7 @@
 #include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/pose.hpp"
+#include "map_tiles.hpp"
 #include "scene.hpp"
 #include "server_process.hpp"
 #include "test_util.hpp"
@@ -29,23 +30,10 @@ using pl::test::scan_of;
 using pl::test::street;
 using pl::test::Surface;
 
-// --- synthetic scenes -----------------------------------------------------------------------------
-
-// The surfaces sampled every `step` metres, cut into tiles (the hash names a tile's content, as the
-// server's does).
-std::vector<MapTile> tiles_of(const std::vector<Surface>& surfaces, double step, double tile_size) {
-  auto tiles = pl::test::surface_tiles(surfaces, step, tile_size);
-  std::vector<MapTile> out;
-  for (auto& [key, cloud] : tiles)
-    out.push_back({key, std::to_string(key.tx) + "," + std::to_string(key.ty) + "/" + std::to_string(cloud.size()),
-                   std::make_shared<const pl::TileCloud>(std::move(cloud))});
-  return out;
-}
-
 // --- the ROI map ----------------------------------------------------------------------------------
 
 TEST(RoiMap, TilesEnterAndLeaveWithoutATrace) {
-  const auto tiles = tiles_of(street(), 0.2, 20.0);
+  const auto tiles = pl::test::map_tiles(street());
   RoiMap map(20.0, Eigen::Vector3d::Zero());
   map.update(tiles);
   const std::size_t all_cells = map.cells(), all_points = map.points();
@@ -146,7 +134,7 @@ TEST(Fusion, MomentumWithoutOdometry) {
 
 TEST(Localizer, StartsFiveMetresAndThirtyDegreesOff) {
   const auto surfaces = street();
-  const auto tiles = tiles_of(surfaces, 0.2, 20.0);
+  const auto tiles = pl::test::map_tiles(surfaces);
   pl::client::LocalizerConfig cfg;
   pl::client::Localizer loc(cfg, 20.0, [&](const Eigen::Vector2d&, double) { return tiles; });
   const Eigen::Isometry3d truth = pl::make_pose(2.0, 0.5, 1.8, 0, 0, 0.05);

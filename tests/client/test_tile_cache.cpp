@@ -15,6 +15,7 @@
 #include "pl/common/error.hpp"
 #include "pl/schema/store.hpp"
 #include "raw_sql.hpp"
+#include "error_of.hpp"
 #include "test_util.hpp"
 
 using pl::client::TileCache;
@@ -22,14 +23,7 @@ using pl::test::TempDir;
 
 namespace {
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const pl::Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using pl::test::error_of;
 
 bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 

@@ -28,6 +28,7 @@
 #include "pl/schema/store.hpp"
 #include "server_process.hpp"
 #include "raw_sql.hpp"
+#include "error_of.hpp"
 #include "test_util.hpp"
 
 using nlohmann::json;
@@ -294,14 +295,6 @@ void read_like_the_client(const std::string& path) {
   cache.blob_count();
 }
 
-std::string cache_error(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const pl::Error& e) {
-    return e.what();
-  }
-  return "";
-}
 
 void expect_cache_damaged(const std::string& msg, const std::string& path, const std::string& detail) {
   EXPECT_NE(msg.find(path), std::string::npos) << msg;
@@ -321,7 +314,7 @@ TEST(TileCache, TruncatedFileIsRefusedAsDamagedAndLeftAsItWas) {
   const std::string whole = pl::test::read_file(path);
   std::filesystem::resize_file(path, whole.size() / 2);
   const std::string cut = pl::test::read_file(path);
-  expect_cache_damaged(cache_error([&] { read_like_the_client(path); }), path, "malformed");
+  expect_cache_damaged(pl::test::error_of([&] { read_like_the_client(path); }), path, "malformed");
   EXPECT_EQ(pl::test::read_file(path), cut);  // not written, not "repaired"
 }
 
@@ -335,7 +328,7 @@ TEST(TileCache, HeaderThatOnlyLetsSqliteReadIsRefusedAsDamaged) {
     f << '\x42';  // the file format write version: SQLite writes 1 (legacy) or 2 (WAL)
   }
   const std::string damaged = pl::test::read_file(path);
-  expect_cache_damaged(cache_error([&] { TileCache cache(path); }), path, "may only read it");
+  expect_cache_damaged(pl::test::error_of([&] { TileCache cache(path); }), path, "may only read it");
   EXPECT_EQ(pl::test::read_file(path), damaged);
 }
 
@@ -362,7 +355,7 @@ TEST(TileCache, CacheToSwitchToWalIsCheckedWholeFirst) {
     f << std::string(8, '\xee');  // the manifests' page is no b-tree page any more
   }
   const std::string damaged = pl::test::read_file(path);
-  expect_cache_damaged(cache_error([&] { TileCache cache(path); }), path, "quick_check");
+  expect_cache_damaged(pl::test::error_of([&] { TileCache cache(path); }), path, "quick_check");
   EXPECT_EQ(pl::test::read_file(path), damaged);  // not switched to WAL
 }
 
@@ -377,7 +370,7 @@ TEST(TileCache, CraftedSchemaIsRefusedBeforeAnyOfItRuns) {
     make_sample_cache(path);
     raw_sql(path, sql);
     const std::string crafted = pl::test::read_file(path);
-    expect_cache_damaged(cache_error([&] { TileCache cache(path); }), path, "its tables are not the ones this software makes");
+    expect_cache_damaged(pl::test::error_of([&] { TileCache cache(path); }), path, "its tables are not the ones this software makes");
     EXPECT_EQ(pl::test::read_file(path), crafted) << sql;
   }
 }
@@ -407,7 +400,7 @@ TEST(TileCache, ValuesOfTheWrongKindAreRefused) {
     make_sample_cache(path);
     raw_sql(path, c.sql);
     TileCache cache(path);
-    expect_cache_damaged(cache_error([&] { c.read(cache); }), path, c.detail);
+    expect_cache_damaged(pl::test::error_of([&] { c.read(cache); }), path, c.detail);
   }
 }
 

@@ -15,6 +15,7 @@
 #include "pl/common/error.hpp"
 #include "pl/schema/store.hpp"
 #include "store_test_util.hpp"
+#include "error_of.hpp"
 #include "test_util.hpp"
 
 namespace {
@@ -30,16 +31,7 @@ using pl::test::RawDb;
 
 const pl::GeoPoint kOrigin{48.137, 11.575, 519.0};
 
-// The message of the pl::Error that `f` throws ("" when it does not throw one).
-template <typename F>
-std::string error_of(F&& f) {
-  try {
-    f();
-  } catch (const pl::Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using pl::test::error_of;
 
 bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
 

@@ -52,8 +52,11 @@ class LidarOdometry {
   };
   std::deque<Placed> scans_;
   // Rebuilt as one part from every held scan at each add: parts may not share cells, and the
-  // scans of a local map overlap almost everywhere.
-  std::unique_ptr<registration::PointMap> fine_, coarse_;
+  // scans of a local map overlap almost everywhere. The coarse map only when a wide track asks.
+  std::vector<Eigen::Vector3d> points_;
+  std::vector<Eigen::Vector3f> normals_;
+  std::unique_ptr<registration::PointMap> fine_;
+  mutable std::unique_ptr<registration::PointMap> coarse_;
 };
 
 }  // namespace pl::client

@@ -126,6 +126,11 @@ struct LocalizerConfig {
 enum class Health { Ok, Degraded, Lost };
 const char* health_name(Health h);
 
+// How far from the prediction the registration looked: ICP from it, coarse map first, or a search
+// of the whole uncertainty region.
+enum class Basin { Fine, Coarse, Search };
+const char* basin_name(Basin b);
+
 // The prediction of a scan's pose, taken under the caller's lock (it reads the odometry buffer).
 struct Prediction {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
@@ -138,11 +143,11 @@ struct ScanReport {
   Eigen::Isometry3d fused = Eigen::Isometry3d::Identity();      // the pose reported for the scan
   registration::IcpResult icp;
   Uncertainty uncertainty;             // the prediction's (1 sigma)
-  const char* basin = "fine";          // fine, coarse, search
+  Basin basin = Basin::Fine;
   const char* motion = "momentum";     // odometry, lidar odometry, momentum, start
   bool odometry_ok = false;            // LiDAR odometry gave the increment
   bool fused_lidar = false;            // the registration was accepted and fused
-  bool gated = false;                  // rejected by the gate on the prediction's uncertainty
+  bool gated = false;                  // rejected by the gate on the prediction's uncertainty (a jump)
   bool plausible = false;              // the absolute checks passed (share on a map surface, residual)
   bool consistent = false;             // the relative checks passed (against the recent verified scans)
   bool verified = false;               // ... and the relative ones, and no alternative fits about as well
@@ -150,11 +155,11 @@ struct ScanReport {
   bool ambiguous = false;              // a distinctly different pose explains the scan about as well
   bool resolved = false;               // a perturbed seed found a better minimum, which was taken
   double alternative_m = 0;            // distance to the best distinct alternative (0: none)
+  double registration_sigma_m = 0;     // the registration's horizontal position sigma, inflated
   double protection_m = 0;             // bound on the horizontal position error
   Health health = Health::Ok;
   std::string note;                    // why degraded or lost
   bool map_outdated = false;
-  bool diverging = false;
   std::size_t scan_points = 0;  // after preparation: the points registered
   std::size_t map_tiles = 0, map_points = 0;
   double prepare_ms = 0, map_ms = 0, register_ms = 0, odometry_ms = 0, integrity_ms = 0;
@@ -186,8 +191,6 @@ class Localizer {
 
   // The fused pose at any time (odometry rate where there is odometry).
   Eigen::Isometry3d pose_at(double t) const { return fusion_.predict(t); }
-  // The protection level of the last scan (metres), and of a pose read between scans.
-  double protection_m() const { return protection_m_; }
   const RoiMap* map() const { return map_.get(); }
   const LocalizerConfig& config() const { return cfg_; }
   // Brings the ROI maps to the tiles around `center` (done by process(); public for start-up).
@@ -214,12 +217,13 @@ class Localizer {
   Eigen::Isometry3d last_pose_ = Eigen::Isometry3d::Identity();
   int unfused_streak_ = 0, unverified_streak_ = 0;
   bool lost_ = false;
-  double protection_m_ = 0;
   std::vector<double> recent_share_, recent_rms_;  // of verified scans, for the relative checks
   std::vector<Eigen::Vector3f> scan_;              // the scan between register_at and fuse
 
   Uncertainty grow(double t, const Prediction& p) const;
   void set_anchor(double t, const Uncertainty& u, bool velocity_known, double speed);
+  // From the next scan on, search the relocalization reach round the last pose (at least u).
+  void relocalize(double t, const Uncertainty& u);
   void check_integrity(const std::vector<Eigen::Vector3f>& points, ScanReport& r,
                        std::vector<registration::Candidate> alternatives) const;
 };

@@ -1,0 +1,27 @@
+# Sourced by the drive-0005 benchmarks: finds the real drive and prepares, once, the paper's map of
+# its even scans at their OXTS poses (0.2 m voxels, tiled into a SQLite map store) in WORK/k05, with
+# the ground truth of every scan (gt.txt) and of the odd ones (gt_odd.txt).
+#   k05_map NAME BIN_DIR WORK_DIR  -> sets drive and k05; returns 1 (after saying so) without the data
+k05_map() {
+  local name=$1 bin=$2 work=$3 root data
+  root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+  data=$("$root/tools/shared-data.sh" 2>/dev/null || true)
+  drive="$data/kitti-raw-2011_09_26_drive_0005_sync"
+  if [[ -z "$data" || ! -d "$drive/velodyne_points/data" ]]; then
+    echo "$name: skipped, the real data is absent (tools/shared-data.sh finds no drive 0005)"
+    return 1
+  fi
+  k05="$work/k05"
+  mkdir -p "$k05"
+  k05=$(cd "$k05" && pwd)
+  if [[ ! -f "$k05/maps.sqlite" ]]; then
+    echo "preparing the map of the even scans in $k05 (once)"
+    rm -f "$k05/maps.sqlite.partial"*
+    "$bin/pl-map" build --dataset "$drive" --poses gt --every 2 --out "$k05/even.pcd" >/dev/null
+    "$bin/pl-map" tile --cloud "$k05/even.pcd" --db "$k05/maps.sqlite.partial" --map k05 >/dev/null
+    "$bin/pl-map" publish --db "$k05/maps.sqlite.partial" --map k05 --version 1 >/dev/null
+    mv "$k05/maps.sqlite.partial" "$k05/maps.sqlite"
+  fi
+  "$bin/pl-dataset" poses "$drive" --out "$k05/gt.txt" >/dev/null
+  awk 'NR % 2 == 0' "$k05/gt.txt" >"$k05/gt_odd.txt"
+}
