@@ -2,8 +2,10 @@
 # The localizer on real data at one to four times the speed: drive 0005's odd scans (map from the
 # even ones at their OXTS poses, 16 of 64 beams, LiDAR only, started from the first scan's pose with
 # no velocity), keeping every k-th -- the same street driven k times faster -- with and without LiDAR
-# odometry; then a kidnapping (30 odd scans, about 24 m, cut out; with the clock running on, and
-# closed over the cut: no hint at all). Per run: APE mean / median / max (3D, as pl-eval ape), scans
+# odometry, with and without motion compensation (map and scans), and pcl::IterativeClosestPoint on
+# the same scans from the same start (bench_localize --every K); then kidnappings (25 to 40 odd scans,
+# 20 to 33 m, cut out; with the clock running on, and closed over the cut: no hint at all), and global
+# starts (--init global, no pose) at 10 scans spread over the drive. Per run: APE mean / median / max (3D, as pl-eval ape), scans
 # more than 0.5 m off and how many of them were reported ok (must be 0), status counts, the share of
 # scans whose horizontal error exceeds their protection level (a horizontal bound), the median
 # protection level, and the median registration time (LiDAR odometry and integrity checks included).
@@ -26,8 +28,8 @@ run() {
   local out="$k05/rates/$name"
   out=${out// /_}
   out=${out//,/}
-  "$bin/pl-localize" --dataset "$drive" --db "$k05/maps.sqlite" --map k05 --beams 16 --scans odd --odometry lidar --init gt \
-    --out "$out.tum" --kitti-out "$out.txt" --timing "$out.csv" "$@" >"$out.log"
+  "$bin/pl-localize" --dataset "$drive" --db "${db:-$k05/maps.sqlite}" --map k05 --beams 16 --scans odd --odometry lidar \
+    --init gt --out "$out.tum" --kitti-out "$out.txt" --timing "$out.csv" "$@" >"$out.log"
   # Per scan: error, protection level, registration ms, status.
   awk '
     FNR == 1 { file++ }
@@ -54,6 +56,52 @@ for lo in on off; do
     run "every $k, odometry $lo" "$k05/rates/gt_$k.txt" --every "$k" --lidar-odometry "$lo"
   done
 done
-awk '!((NR - 1) >= 30 && (NR - 1) < 60)' "$k05/gt_odd.txt" >"$k05/rates/gt_cut.txt"
-run "cut 30, clock on" "$k05/rates/gt_cut.txt" --cut 30,30
-run "cut 30, clock closed" "$k05/rates/gt_cut.txt" --cut 30,30 --cut-clock close
+# Motion compensation: a map merged with --deskew on, scans localized with --deskew on.
+if [[ ! -f "$k05/deskew.sqlite" ]]; then
+  "$bin/pl-map" build --dataset "$drive" --poses gt --every 2 --deskew on --out "$k05/deskew.pcd" >/dev/null
+  rm -f "$k05/deskew.sqlite.partial"*
+  "$bin/pl-map" tile --cloud "$k05/deskew.pcd" --db "$k05/deskew.sqlite.partial" --map k05 >/dev/null
+  "$bin/pl-map" publish --db "$k05/deskew.sqlite.partial" --map k05 --version 1 >/dev/null
+  mv "$k05/deskew.sqlite.partial" "$k05/deskew.sqlite"
+fi
+for k in 1 2 3 4; do
+  db="$k05/deskew.sqlite" run "every $k, motion compensated" "$k05/rates/gt_$k.txt" --every "$k" --deskew on
+done
+# Kidnappings: K scans, then N cut out.
+for cut in 30,25 20,40 10,30; do
+  k=${cut%,*} n=${cut#*,}
+  awk -v k="$k" -v n="$n" '!((NR - 1) >= k && (NR - 1) < k + n)' "$k05/gt_odd.txt" >"$k05/rates/gt_cut.txt"
+  run "cut $cut, clock on" "$k05/rates/gt_cut.txt" --cut "$cut"
+  run "cut $cut, clock closed" "$k05/rates/gt_cut.txt" --cut "$cut" --cut-clock close
+  # The first scan after the jump, and how many scans later the pose was back within 0.2 m (horizontal).
+  awk -v k="$k" 'NR == k + 1 { printf "    first scan after the jump: %s, protection %.1f m; ", $4, $2 }
+                 NR > k && !back && $5 < 0.2 { back = NR - k - 1; printf "back within 0.2 m %d scans later\n", back }
+                 END { if (!back) print "not back" }' "$k05/rates/cut_${cut/,/}_clock_closed.scans"
+done
+
+# PCL's ICP on the same scans from the same start (no odometry: constant velocity of its own estimates).
+echo
+echo "| pcl::IterativeClosestPoint (bench_localize) | APE mean | median | max | within 0.5 m | converged |"
+echo "|---|---|---|---|---|---|"
+if [[ -x "$bin/bench_localize" ]]; then
+  for k in 1 2 3 4; do
+    "$bin/bench_localize" "$drive" "$k05/maps.sqlite" --map k05 --every "$k" >"$k05/rates/pcl_$k.log"
+    awk -v k="$k" '/^pcl ICP point-to-point/ { printf "| every %d | %s | %s | %s | %s | %s |\n", k, $(NF-9), $(NF-8), $(NF-6), $(NF-4), $(NF-5) }' \
+      "$k05/rates/pcl_$k.log"
+  done
+else
+  echo "(bench_localize not built: PCL missing)"
+fi
+
+# Global starts: no pose, at 10 odd scans spread over the drive, three scans each. A start is found
+# when a scan is ok; it must then be within 0.2 m. The time is that of the first scan's search.
+echo
+echo "| global start at odd scan | found | error when found (m) | first search ms |"
+echo "|---|---|---|---|"
+for first in 0 8 16 24 32 40 48 56 64 72; do
+  head -n $((first + 3)) "$k05/gt_odd.txt" | tail -n 3 >"$k05/rates/gt_global.txt"
+  run "global $first" "$k05/rates/gt_global.txt" --init global --first "$first" --count 3 >/dev/null
+  awk -v f="$first" 'NR == 1 { ms = $3 } $4 == "ok" && !found { found = 1; e = $5 }
+                     END { printf "| %d | %s | %s | %.0f |\n", f, found ? "yes" : "no", found ? sprintf("%.3f", e) : "-", ms }' \
+    "$k05/rates/global_$first.scans"
+done

@@ -38,12 +38,16 @@ std::vector<std::size_t> choose_scans(const pl::Dataset& ds, const std::string& 
   return std::vector<std::size_t>(scans.begin() + static_cast<long>(first), scans.begin() + static_cast<long>(end));
 }
 
-// The start: ground truth, the first GPS fix (every heading searched), or a pose given (searched
-// round it unless --init-search off).
+// The start: ground truth, the first GPS fix (every heading searched), a pose given (searched within
+// --init-radius unless --init-search off), or none (global: the map's places).
 void choose_start(const pl::Dataset& ds, const std::string& init, bool search, pl::client::VehicleLocalizerConfig& cfg,
                   pl::client::ReplayOptions& replay) {
   const double t0 = ds.times[replay.scans.front()];
   Eigen::Isometry3d start = Eigen::Isometry3d::Identity();
+  if (init == "global") {
+    replay.start = [t0](pl::client::VehicleLocalizer& loc) { loc.start_global(t0); };
+    return;
+  }
   if (init == "gt") {
     if (!ds.has_ground_truth()) throw Error("--init gt: " + ds.dir + " has no ground-truth poses; give --init x,y,z,yaw");
     start = ds.ground_truth.poses[replay.scans.front()];
@@ -84,9 +88,15 @@ int main(int argc, char** argv) {
   cli::number(app, "--fov", lc.scan.fov_deg, "horizontal field of view kept, degrees, centred ahead", cli::above_up_to(0, 360));
   cli::choice(app, "--odometry", odometry, "what predicts between scans (auto: encoder, else odometry, else lidar momentum)",
               {"auto", "encoder", "odometry", "lidar"});
-  app.add_option("--init", init, "start: x,y,z,yaw (degrees), gt, or gps (default: gps when the drive has fixes, else gt)");
-  cli::choice(app, "--init-search", init_search, "search round an --init x,y,z,yaw (+-6 m, +-45 deg)", {"on", "off"});
-  std::string lidar_odometry = "on";
+  app.add_option("--init", init, "start: x,y,z,yaw (degrees), gt, gps, or global (no pose: the map's places are searched; "
+                 "default: gps when the drive has fixes, else gt)");
+  cli::choice(app, "--init-search", init_search, "search round an --init x,y,z,yaw (within --init-radius, +-45 deg)", {"on", "off"});
+  cli::number(app, "--init-radius", cfg.search.radius_m, "how far from an --init x,y,z,yaw the vehicle may be, metres",
+              cli::above(0));
+  std::string lidar_odometry = "on", deskew = "auto";
+  cli::choice(app, "--deskew", deskew, "correct each scan for the motion during its sweep with the predicted motion, each point "
+              "timed by its azimuth (auto: off; on KITTI raw it did not help, see docs/pl-localize.md; use on with a map "
+              "built with pl-map build --deskew on)", {"auto", "on", "off"});
   cli::choice(app, "--lidar-odometry", lidar_odometry, "LiDAR odometry where no other odometry covers the motion", {"on", "off"});
   cli::choice(app, "--scans", scans, "which scans", {"all", "even", "odd"});
   cli::number(app, "--every", every, "keep every k-th of those scans (the same drive k times faster)", cli::between(1, 1000));
@@ -153,6 +163,8 @@ int main(int argc, char** argv) {
     }
     if (!replay.time_shift.empty() && replay.odometry != pl::client::OdometrySource::None)
       throw Error("--cut-clock close needs --odometry lidar (the odometry's own clock cannot be closed over the cut)");
+    lc.compensate_motion = deskew == "on";
+    if (ds.meta.sensor.rate_hz > 0) lc.sweep_s = 1.0 / ds.meta.sensor.rate_hz;
     choose_start(ds, init.empty() ? (ds.gps.empty() ? "gt" : "gps") : init, init_search == "on", cfg, replay);
     if (db.empty()) cfg.tiles.server = server;
     else cfg.store_path = db;

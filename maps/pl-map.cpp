@@ -69,8 +69,9 @@ void add_build(Tool& tool) {
                        "TUM with the scan times when FILE ends in .tum)");
   pl::cli::output_file(c, "--report", s->report, "write JSON: keyframes, GPS edges and outliers, GPS residuals, loops proposed/"
                        "accepted/rejected (and why), the mean error against ground truth before and after the graph, times");
-  pl::cli::choice(c, "--deskew", s->deskew, "correct each scan for the motion during the sweep (auto: on for recordings "
-                  "without meta.json)", {"auto", "on", "off"});
+  pl::cli::choice(c, "--deskew", s->deskew, "correct each scan for the motion during the sweep, timed by azimuth (auto: the LiDAR "
+                  "odometry's features for recordings without meta.json; the merged map only with on, as on KITTI raw it "
+                  "did not help)", {"auto", "on", "off"});
   pl::cli::number(c, "--voxel", merge.voxel_m, "voxel side of the map, metres", pl::cli::above(0));
   pl::cli::number(c, "--every", merge.every, "merge every N-th scan (the odometry still uses them all)", pl::cli::at_least(1));
   pl::cli::number(c, "--min-range", merge.scan.min_range_m, "returns closer than this are not merged, metres", pl::cli::at_least(0));
@@ -79,7 +80,7 @@ void add_build(Tool& tool) {
 
 void add_tile(Tool& tool) {
   struct State {
-    std::string cloud, db, map, origin;
+    std::string cloud, db, map, origin, places = "auto";
     maps::ImportConfig cfg;
   };
   auto s = std::make_shared<State>();
@@ -87,6 +88,8 @@ void add_tile(Tool& tool) {
                              "staged version (the map is created on first use; unchanged tiles share their stored bytes)", [s] {
     maps::check_import_config(s->cfg);
     if (!s->origin.empty()) s->cfg.origin = pl::cli::geo_point(s->origin, "--origin");
+    if (s->places == "auto") s->cfg.places = pl::file_exists(maps::places_path(s->cloud)) ? maps::places_path(s->cloud) : "";
+    else if (s->places != "none") s->cfg.places = s->places;
     const pl::Cloud cloud = pl::read_cloud(s->cloud);
     std::unique_ptr<pl::Progress> bar;
     const maps::ImportResult r = maps::import_cloud(s->db, s->map, cloud, s->cloud, s->cfg, [&](std::size_t done, std::size_t total) {
@@ -99,6 +102,8 @@ void add_tile(Tool& tool) {
     std::printf("map %s version %lld staged (%s): %zu tiles (%zu new or changed, %zu unchanged, %zu removed), %zu points, %s\n",
                 s->map.c_str(), number, parent.c_str(), r.tiles, r.changed, r.unchanged, r.removed, r.points,
                 maps::megabytes(r.bytes).c_str());
+    if (r.places > 0) std::printf("%zu places for relocalization from %s\n", r.places, s->cfg.places.c_str());
+    else std::printf("no places: the localizer can start and relocalize only near a given pose (pl-map build writes them)\n");
     std::printf("publish it with: pl-map publish --db %s --map %s --version %lld\n", s->db.c_str(), s->map.c_str(), number);
     return 0;
   });
@@ -113,6 +118,8 @@ void add_tile(Tool& tool) {
   pl::cli::number(c, "--max-error", s->cfg.codec.max_error_m, "largest position error after decoding, metres",
                   pl::cli::above_up_to(0, 0.1));
   c.add_option("--note", s->cfg.note, "the version's note (default: \"tiled from CLOUD\")");
+  c.add_option("--places", s->places, "the places stored with the version for relocalization: a .places FILE, none, or auto "
+               "(the CLOUD's name with .places, as pl-map build writes it, when that file exists)")->type_name("FILE|none|auto");
 }
 
 // publish, rollback, list, info, diff: --db and --map of an existing store.

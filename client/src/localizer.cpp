@@ -5,10 +5,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "pl/common/error.hpp"
 #include "pl/common/pose.hpp"
 #include "pl/common/stats.hpp"
+#include "pl/registration/motion.hpp"
 
 namespace pl::client {
 namespace {
@@ -37,6 +39,12 @@ double registration_sigma(const registration::IcpResult& r, double independent) 
   const Eigen::Matrix2d xy = r.covariance.topLeftCorner<2, 2>();
   const double top = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(xy, Eigen::EigenvaluesOnly).eigenvalues()(1);
   return std::sqrt(std::max(0.0, top)) * std::sqrt(std::max(1.0, static_cast<double>(r.pairs) / independent));
+}
+
+// Poses distinctly different: farther apart than distinct_m, or turned more than distinct_deg.
+bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const IntegrityConfig& c) {
+  const Eigen::Matrix3d d = a.linear().transpose() * b.linear();
+  return horizontal_distance(a, b) > c.distinct_m || std::abs(std::atan2(d(1, 0), d(0, 0))) > c.distinct_deg * kDeg;
 }
 
 }  // namespace
@@ -83,7 +91,9 @@ void Localizer::start(const Eigen::Isometry3d& pose, double t, const OdometryBuf
   posterior_ = {cfg_.motion.fix_floor_m, cfg_.motion.fix_floor_m, cfg_.motion.fix_floor_deg * kDeg};
   velocity_known_ = false;
   previous_fused_ = false;
+  previous_verified_ = false;
   relocalizing_ = false;
+  global_ = false;
   set_anchor(t, posterior_, false, 0.0);
   last_t_ = t;
   last_pose_ = pose;
@@ -103,6 +113,37 @@ void Localizer::update_map(const Eigen::Vector2d& center) {
   const std::vector<MapTile> tiles = tiles_(center, cfg_.roi_radius_m);
   map_->update(tiles);
   coarse_->update(tiles);
+  map_center_ = center;
+}
+
+void Localizer::set_places(std::shared_ptr<const registration::PlaceIndex> places, TileProvider far_tiles) {
+  places_ = std::move(places);
+  far_tiles_ = std::move(far_tiles);
+}
+
+void Localizer::start_search(const Eigen::Isometry3d& guess, double t, const OdometryBuffer* odometry, double radius_m,
+                             double yaw_deg) {
+  if (!(radius_m >= 0) || !(yaw_deg >= 0)) throw Error("localizer: a start search needs a radius and a heading range >= 0");
+  start(guess, t, odometry);
+  relocalizing_ = true;
+  posterior_ = {std::max(radius_m / 3.0, cfg_.motion.fix_floor_m), std::max(radius_m / 3.0, cfg_.motion.fix_floor_m),
+                std::max(yaw_deg / 3.0, cfg_.motion.fix_floor_deg) * kDeg};
+  set_anchor(t, posterior_, false, 0.0);
+}
+
+void Localizer::start_global(double t, const OdometryBuffer* odometry) {
+  if (!has_places())
+    throw Error("localizer: a global start needs the map's places, and this map version has none: rebuild it with pl-map build "
+                "and pl-map tile, or start from a pose");
+  // The first place is only where the maps begin; the search does not look round it.
+  Eigen::Isometry3d at = Eigen::Isometry3d::Identity();
+  at.translation() = places_->places().front().position;
+  start(at, t, odometry);
+  relocalizing_ = true;
+  global_ = true;
+  lost_ = true;
+  posterior_ = {cfg_.motion.relocalize_m, cfg_.motion.relocalize_m, M_PI};
+  set_anchor(t, posterior_, false, 0.0);
 }
 
 ScanReport Localizer::process(double t, const Scan& scan, const std::vector<std::uint16_t>& rings) {
@@ -169,15 +210,26 @@ void Localizer::relocalize(double t, const Uncertainty& u) {
   set_anchor(t, posterior_, velocity_known_, 0.0);
 }
 
-ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& points, const Prediction& prediction) {
+ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& scan, const Prediction& prediction) {
   if (!map_) throw Error("localizer: register_at() before start()");
   const MotionConfig& m = cfg_.motion;
   ScanReport r;
   r.t = t;
-  r.scan_points = points.size();
+  r.scan_points = scan.size();
   Uncertainty u = grow(t, prediction);
   Eigen::Isometry3d guess = prediction.pose;
   r.motion = prediction.odometry ? "odometry" : "momentum";
+
+  // The sweep's motion from the prediction: the motion since the last scan at constant velocity.
+  scan_ = scan;
+  const std::vector<Eigen::Vector3f>& points = scan_;
+  const double dt = t - last_t_;
+  r.compensated = prediction.compensated;
+  if (cfg_.compensate_motion && !prediction.compensated && (velocity_known_ || prediction.odometry) && !relocalizing_ &&
+      dt > 0 && dt < 1.0) {
+    registration::compensate_motion(scan_, registration::scale_motion(last_pose_.inverse() * prediction.pose, cfg_.sweep_s / dt));
+    r.compensated = true;
+  }
 
   // LiDAR odometry measures the motion where no external odometry does, when the local map's basin
   // reaches the prediction's uncertainty.
@@ -222,19 +274,7 @@ ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& 
     r.icp = registration::register_coarse_to_fine(coarse_->points_map(), map_->points_map(), points, guess, cfg_.icp);
   } else {
     r.basin = Basin::Search;
-    registration::PoseSearch s;
-    const bool jumped = relocalizing_;
-    s.position_step_m = 2.0;
-    s.along_m = std::clamp(3.0 * u.along, s.position_step_m, jumped ? m.relocalize_m : m.search_along_m);
-    s.across_m = std::clamp(3.0 * u.across, s.position_step_m, jumped ? m.relocalize_m : m.search_across_m);
-    s.yaw_range_deg = std::min(180.0, y3);
-    s.yaw_step_deg = 8.0;
-    s.refine = jumped ? 24 : 8;
-    // Within the seed budget: the positions of the ellipse times the headings.
-    const double headings = 2.0 * std::floor(s.yaw_range_deg / s.yaw_step_deg) + 1.0;
-    const double positions = M_PI * s.along_m * s.across_m / (s.position_step_m * s.position_step_m);
-    if (positions * headings > m.max_seeds) s.position_step_m *= std::sqrt(positions * headings / m.max_seeds);
-    alternatives = registration::search_poses(coarse_->points_map(), map_->points_map(), points, guess, s, cfg_.icp);
+    alternatives = search(points, guess, u, r);
     if (alternatives.empty()) {
       r.icp = registration::register_scan(map_->points_map(), points, guess, cfg_.icp);
     } else {
@@ -247,8 +287,79 @@ ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& 
   check_integrity(points, r, alternatives);
   for (int i = 0; i < 3; ++i) r.position_sigma[i] = std::sqrt(std::max(0.0, r.icp.covariance(i, i)));
   r.integrity_ms = now_ms() - t0;
-  scan_ = points;
   return r;
+}
+
+std::vector<registration::Candidate> Localizer::search(const std::vector<Eigen::Vector3f>& points,
+                                                      const Eigen::Isometry3d& guess, const Uncertainty& u, ScanReport& r) {
+  const MotionConfig& m = cfg_.motion;
+  const bool jumped = relocalizing_;
+  std::vector<registration::Candidate> found;
+  // The region round the prediction (not when there is none).
+  if (!global_) {
+    registration::PoseSearch s;
+    s.position_step_m = 2.0;
+    // With places to propose where else the vehicle may be, the region round the prediction stays
+    // within the search caps; without, a relocalization covers its whole reach.
+    const double reach = jumped && !has_places() ? m.relocalize_m : m.search_across_m;
+    s.along_m = std::clamp(3.0 * u.along, s.position_step_m, jumped ? reach : m.search_along_m);
+    s.across_m = std::clamp(3.0 * u.across, s.position_step_m, jumped ? reach : m.search_across_m);
+    s.yaw_range_deg = std::min(180.0, 3.0 * u.yaw / kDeg);
+    s.yaw_step_deg = 8.0;
+    s.refine = jumped ? 24 : 8;
+    // Within the seed budget: the positions of the ellipse times the headings.
+    const double headings = 2.0 * std::floor(s.yaw_range_deg / s.yaw_step_deg) + 1.0;
+    const double positions = M_PI * s.along_m * s.across_m / (s.position_step_m * s.position_step_m);
+    if (positions * headings > m.max_seeds) s.position_step_m *= std::sqrt(positions * headings / m.max_seeds);
+    found = registration::search_poses(coarse_->points_map(), map_->points_map(), points, guess, s, cfg_.icp);
+  }
+  // The places the scan looks like, any heading: within the reach of a relocalization, anywhere when
+  // there is no pose. Each is searched on the maps round it.
+  if (jumped && has_places()) {
+    const PlaceConfig& pc = cfg_.places;
+    // The scan levelled by the prediction's roll and pitch, as the places are.
+    const Eigen::Matrix3d level =
+        Eigen::AngleAxisd(-registration::heading_of(guess), Eigen::Vector3d::UnitZ()).toRotationMatrix() * guess.linear();
+    std::vector<Eigen::Vector3f> levelled;
+    levelled.reserve(points.size());
+    for (const auto& p : points) levelled.push_back((level * p.cast<double>()).cast<float>());
+    // Within the gate's reach (the gate takes 3 sigma of the uncertainty, at least relocalize_m).
+    const double reach = std::max(3.0 * std::min(u.along, u.across), m.relocalize_m);
+    const auto proposals = places_->propose(registration::make_place_descriptor(levelled, places_->config()),
+                                            static_cast<std::size_t>(pc.proposals), guess.translation().head<2>(),
+                                            global_ ? 0.0 : reach);
+    registration::PoseSearch s;
+    s.along_m = s.across_m = pc.search_m;
+    s.position_step_m = 2.0;
+    s.yaw_range_deg = pc.search_deg;
+    s.yaw_step_deg = 6.0;
+    s.refine = 3;
+    const TileProvider& far = far_tiles_ ? far_tiles_ : tiles_;
+    for (const auto& p : proposals) {
+      const Eigen::Vector2d xy = p.pose.translation().head<2>();
+      if ((xy - map_center_).norm() > cfg_.roi_radius_m - m.relocalize_m) {
+        const std::vector<MapTile> tiles = far(xy, cfg_.roi_radius_m);
+        map_->update(tiles);
+        coarse_->update(tiles);
+        map_center_ = xy;
+      }
+      Eigen::Isometry3d seed = p.pose;
+      seed.linear() = seed.linear() * level.transpose();  // the scan's tilt, as predicted
+      for (auto& c : registration::search_poses(coarse_->points_map(), map_->points_map(), points, seed, s, cfg_.icp))
+        found.push_back(std::move(c));
+    }
+    r.place_proposals = static_cast<int>(proposals.size());
+  }
+  std::stable_sort(found.begin(), found.end(),
+                   [](const registration::Candidate& a, const registration::Candidate& b) { return a.score > b.score; });
+  // The maps round the best; candidates found on other maps keep their scores (share and residual
+  // do not depend on which tiles are loaded beyond the scan's reach).
+  if (!found.empty() && (found.front().icp.pose.translation().head<2>() - map_center_).norm() > 1.0) {
+    update_map(found.front().icp.pose.translation().head<2>());
+    found.front().icp = registration::register_scan(map_->points_map(), points, found.front().icp.pose, cfg_.icp);
+    found.front().score = registration::registration_score(found.front().icp);
+  }
+  return found;
 }
 
 void Localizer::check_integrity(const std::vector<Eigen::Vector3f>& points, ScanReport& r,
@@ -275,11 +386,11 @@ void Localizer::check_integrity(const std::vector<Eigen::Vector3f>& points, Scan
       if (kind < 2) seed.translation().head<2>() += sign * (kind == 0 ? 1.0 : 1.7) * c.seed_offset_m * weak;
       else seed.linear() = rotation_from_vector(Eigen::Vector3d(0, 0, sign * c.seed_yaw_deg * kDeg)) * seed.linear();
       const registration::IcpResult coarse = registration::register_scan(coarse_->points_map(), sparse, seed, wide);
-      if (horizontal_distance(coarse.pose, r.icp.pose) <= c.distinct_m) continue;  // back in the solution's basin
+      if (!distinct(coarse.pose, r.icp.pose, c)) continue;  // back in the solution's basin
       if (registration::registration_score(coarse) < c.ambiguity_ratio * own) continue;
       registration::Candidate alt;
       alt.icp = registration::register_scan(map_->points_map(), points, coarse.pose, refine);
-      if (!alt.icp.accepted || horizontal_distance(alt.icp.pose, r.icp.pose) <= c.distinct_m) continue;
+      if (!alt.icp.accepted || !distinct(alt.icp.pose, r.icp.pose, c)) continue;
       alt.score = registration::registration_score(alt.icp);
       alternatives.push_back(alt);
     }
@@ -289,7 +400,7 @@ void Localizer::check_integrity(const std::vector<Eigen::Vector3f>& points, Scan
   double best = registration::registration_score(r.icp);
   const registration::Candidate* top = nullptr;
   for (const auto& a : alternatives)
-    if (horizontal_distance(a.icp.pose, r.icp.pose) > c.distinct_m && (!top || a.score > top->score)) top = &a;
+    if (distinct(a.icp.pose, r.icp.pose, c) && (!top || a.score > top->score)) top = &a;
   if (top && top->score * c.ambiguity_ratio > best) {
     r.alternative_m = horizontal_distance(top->icp.pose, r.icp.pose);
     r.icp = top->icp;
@@ -300,6 +411,23 @@ void Localizer::check_integrity(const std::vector<Eigen::Vector3f>& points, Scan
     r.ambiguous = top->score >= c.ambiguity_ratio * best;
   }
   r.registration_sigma_m = registration_sigma(r.icp, c.independent_pairs);
+  // The basin's flatness along the direction held least.
+  if (c.probe_m > 0 && c.probe_iterations > 0) {
+    const Eigen::Matrix2d xy = r.icp.covariance.topLeftCorner<2, 2>();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(xy);
+    Eigen::Vector2d weak = es.eigenvectors().col(1);
+    if (!weak.allFinite() || weak.norm() < 0.5) weak = Eigen::Vector2d::UnitX();
+    const std::vector<Eigen::Vector3f> sparse = registration::subsample(points, static_cast<std::size_t>(c.probe_points));
+    registration::IcpConfig probe = cfg_.icp;
+    probe.max_iterations = c.probe_iterations;
+    probe.kernel_start_m = probe.kernel_m;  // already near: the final kernel from the start
+    for (const double sign : {1.0, -1.0}) {
+      Eigen::Isometry3d seed = r.icp.pose;
+      seed.translation().head<2>() += sign * c.probe_m * weak;
+      const registration::IcpResult end = registration::register_scan(map_->points_map(), sparse, seed, probe);
+      r.basin_spread_m = std::max(r.basin_spread_m, horizontal_distance(end.pose, r.icp.pose));
+    }
+  }
   // Absolute and relative checks.
   const bool absolute = r.icp.inlier_share >= c.min_share && r.icp.rms_m <= c.max_rms_m;
   bool relative = true;
@@ -309,7 +437,13 @@ void Localizer::check_integrity(const std::vector<Eigen::Vector3f>& points, Scan
   r.consistent = relative;
   r.verified = absolute && relative && !r.ambiguous;
   // A pose found by a search is confirmed by the next scan before it is ok.
-  const bool searched = r.basin == Basin::Search;
+  // The scan after a verified search result confirms it when its own search lands where that result
+  // predicted (as a registration from the prediction would have).
+  const MotionConfig& m = cfg_.motion;
+  const Eigen::Isometry3d step = r.predicted.inverse() * r.icp.pose;
+  const bool confirms = previous_verified_ && horizontal_distance(r.predicted, r.icp.pose) <= m.fine_basin_m &&
+                        std::abs(std::atan2(step.linear()(1, 0), step.linear()(0, 0))) <= m.fine_basin_deg * kDeg;
+  const bool searched = r.basin == Basin::Search && !confirms;
   r.integrity = r.verified && !r.resolved && !searched;
   if (!absolute) r.note = r.icp.inlier_share < c.min_share ? "too few scan points on a map surface" : "residual too large";
   else if (!relative) r.note = "the fit is worse than the recent scans'";
@@ -318,7 +452,7 @@ void Localizer::check_integrity(const std::vector<Eigen::Vector3f>& points, Scan
   else if (searched) r.note = "found by a search: to be confirmed by the next scan";
   // The protection level. Unverified for another reason than ambiguity, the error is known only to be
   // within the reach of the search that would find the vehicle again.
-  r.protection_m = c.map_error_m + c.sigmas * r.registration_sigma_m + (r.ambiguous ? r.alternative_m : 0.0);
+  r.protection_m = c.map_error_m + c.sigmas * r.registration_sigma_m + r.basin_spread_m + (r.ambiguous ? r.alternative_m : 0.0);
   if (!absolute || !relative) r.protection_m = c.map_error_m + cfg_.motion.relocalize_m;
 }
 
@@ -332,9 +466,12 @@ void Localizer::fuse(ScanReport& r) {
   // The gate: the correction within 3 sigma of the prediction (plus a floor), axis by axis.
   const Eigen::Isometry3d delta = r.predicted.inverse() * r.icp.pose;
   const double dyaw = std::abs(std::atan2(delta.linear()(1, 0), delta.linear()(0, 0)));
-  const bool gate = std::abs(delta.translation().x()) <= 3.0 * u.along + m.gate_floor_m &&
+  // A relocalization by the map's places looks at every heading: its heading is not gated.
+  const bool any_heading = relocalizing_ && r.place_proposals > 0;
+  // With no pose at all (a global start) nothing is gated.
+  const bool gate = global_ || (std::abs(delta.translation().x()) <= 3.0 * u.along + m.gate_floor_m &&
                     std::abs(delta.translation().y()) <= 3.0 * u.across + m.gate_floor_m &&
-                    dyaw <= 3.0 * u.yaw + m.gate_floor_deg * kDeg;
+                    (any_heading || dyaw <= 3.0 * u.yaw + m.gate_floor_deg * kDeg));
   r.map_outdated = r.icp.accepted && (1.0 - r.icp.inlier_share) > cfg_.outdated_share;
   // From an uncertain prediction (a coarse basin or a search) only a verified result is fused: that is
   // where wrong minima are.
@@ -354,8 +491,12 @@ void Localizer::fuse(ScanReport& r) {
     r.fused_lidar = true;
     unfused_streak_ = 0;
     lost_ = false;
-    const double s = std::max(m.fix_floor_m, r.registration_sigma_m);
-    const double yaw_s = std::max(m.fix_floor_deg * kDeg, std::sqrt(std::max(0.0, r.icp.covariance(5, 5))));
+    double s = std::max(m.fix_floor_m, r.registration_sigma_m);
+    double yaw_s = std::max(m.fix_floor_deg * kDeg, std::sqrt(std::max(0.0, r.icp.covariance(5, 5))));
+    if (!r.integrity) {  // not confirmed yet (a search, an ambiguity): the next scan looks wider than the fine basin
+      s = std::max(s, 2.0 * m.fine_basin_m / 3.0);
+      yaw_s = std::max(yaw_s, 2.0 * m.fine_basin_deg * kDeg / 3.0);
+    }
     posterior_ = {s, s, yaw_s};
     // Two fused scans in a row give momentum its velocity; LiDAR odometry measures it.
     velocity_known_ = r.odometry_ok || previous_fused_;
@@ -388,6 +529,7 @@ void Localizer::fuse(ScanReport& r) {
   last_t_ = t;
   last_pose_ = r.fused;
   previous_fused_ = take;
+  previous_verified_ = take && r.verified;
 
   // A scan neither the map nor the LiDAR odometry could place, fitting the map badly at the
   // prediction: the vehicle may be elsewhere. Search round the last pose from the next scan on.
@@ -405,6 +547,7 @@ void Localizer::fuse(ScanReport& r) {
     unverified_streak_ = 0;
   } else if (take && r.verified) {
     relocalizing_ = false;
+    global_ = false;
   }
   // A verified result of a search is the reference the next scans are compared with.
   if (take && r.verified && r.basin == Basin::Search) {
@@ -412,6 +555,11 @@ void Localizer::fuse(ScanReport& r) {
     recent_rms_.assign(1, r.icp.rms_m);
   }
   if (!take && (3.0 * u.horizontal() > m.lost_m || unfused_streak_ >= cfg_.lost_after)) lost_ = true;
+  if (global_) {
+    lost_ = true;
+    r.protection_m = std::numeric_limits<double>::infinity();
+    r.note = "no pose yet: searching the whole map by its places";
+  }
   if (lost_) {
     r.health = Health::Lost;
     if (r.note.empty()) r.note = "too many scans not fused";
@@ -419,16 +567,6 @@ void Localizer::fuse(ScanReport& r) {
     r.health = Health::Degraded;
     if (r.note.empty()) r.note = r.map_outdated ? "map looks outdated" : "not verified";
   }
-}
-
-bool Localizer::start_near(const Eigen::Isometry3d& guess, double t, const OdometryBuffer* odometry, const Scan& scan,
-                           const std::vector<std::uint16_t>& rings, const registration::PoseSearch& search) {
-  start(guess, t, odometry);
-  const std::vector<Eigen::Vector3f> points = to_points(prepare_scan(scan, rings, cfg_.scan));
-  Eigen::Isometry3d found;
-  if (!registration::search_pose(coarse_->points_map(), map_->points_map(), points, guess, search, cfg_.icp, found)) return false;
-  start(found, t, odometry);
-  return true;
 }
 
 }  // namespace pl::client

@@ -51,7 +51,7 @@ ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOption
     std::fprintf(o.timing,
                  "scan,t,registration_ms,prepare_ms,map_ms,total_ms,points,iterations,pairs,inlier_share,rms_m,"
                  "conditioning,correction_m,position_sigma_m,odometry_ms,integrity_ms,motion,basin,uncertainty_m,protection_m,alternative_m,"
-                 "status,fused,note\n");
+                 "basin_spread_m,place_proposals,compensated,status,fused,note\n");
   const bool odometry = o.odometry != OdometrySource::None;
   // The output at the odometry rate: sample `out_next` is the next one not yet written.
   std::size_t out_next = 0;
@@ -102,11 +102,11 @@ ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOption
     out.outdated += r.map_outdated;
     (r.health == Health::Ok ? out.ok : r.health == Health::Degraded ? out.degraded : out.lost)++;
     if (o.timing)
-      std::fprintf(o.timing, "%zu,%.6f,%.3f,%.3f,%.3f,%.3f,%zu,%d,%d,%.4f,%.4f,%.4f,%.4f,%.5f,%.3f,%.3f,%s,%s,%.4f,%.4f,%.3f,%s,%d,%s\n", i,
+      std::fprintf(o.timing, "%zu,%.6f,%.3f,%.3f,%.3f,%.3f,%zu,%d,%d,%.4f,%.4f,%.4f,%.4f,%.5f,%.3f,%.3f,%s,%s,%.4f,%.4f,%.3f,%.3f,%d,%d,%s,%d,%s\n", i,
                    t, r.register_ms, r.prepare_ms, r.map_ms, latency * 1000.0, r.scan_points, r.icp.iterations, r.icp.pairs,
                    r.icp.inlier_share, r.icp.rms_m, r.icp.conditioning, (r.predicted.translation() - r.icp.pose.translation()).norm(),
                    r.position_sigma.norm(), r.odometry_ms, r.integrity_ms, r.motion, basin_name(r.basin), r.uncertainty.horizontal(),
-                   r.protection_m, r.alternative_m, health_name(r.health), r.fused_lidar ? 1 : 0, r.note.c_str());
+                   r.protection_m, r.alternative_m, r.basin_spread_m, r.place_proposals, r.compensated ? 1 : 0, health_name(r.health), r.fused_lidar ? 1 : 0, r.note.c_str());
     if (o.progress) o.progress(k + 1, o.scans.size());
   }
   if (odometry) {

@@ -49,4 +49,6 @@ std::vector<MapTile> StoreTiles::near(const Eigen::Vector2d& center, double radi
   return out;
 }
 
+std::optional<std::string> StoreTiles::places() const { return impl_->db.places(impl_->map, version_); }
+
 }  // namespace pl::client

@@ -8,6 +8,8 @@
 //   tile_server.hpp    requests to pl-server, their checks and the backoff (backoff.hpp)
 //   disk_cache.hpp     the disk cache, its failures reported and never fatal
 //   client_status.hpp  the counters and last problem behind status()
+// places() is apart from the thread: the caller's own request (fetch_places in tile_server.hpp),
+// its answer kept per version.
 //
 // The thread repeats one step at a time, re-planning after each (so a new focus takes effect at
 // once): plan the wanted keys (the discs around the focus points and any wait_for disc, nearest
@@ -86,6 +88,11 @@ struct TileClient::Impl {
   std::optional<TileGrid> grid;
   TileIndex index;    // the pinned version at each known key
   TileMemory memory;  // the decoded tiles
+
+  // ---- places(): its callers, one at a time under places_mu
+  std::timed_mutex places_mu;
+  std::optional<long long> places_version;  // the version whose answer is kept
+  std::optional<std::string> places_bytes;  // that answer: the bytes, or nothing (it has none)
 
   std::thread thread;
 
@@ -433,6 +440,33 @@ void TileClient::pin_version(long long version) {
   std::lock_guard<std::mutex> lock(impl_->mu);
   impl_->pin_request = version;
   impl_->bump();
+}
+
+std::optional<std::string> TileClient::places(double timeout_s) {
+  if (!(timeout_s >= 0) || !std::isfinite(timeout_s))
+    throw Error("TileClient::places: the timeout must be a number of seconds >= 0, got " + number(timeout_s));
+  Impl& m = *impl_;
+  const auto deadline = deadline_in(timeout_s);
+  std::unique_lock<std::timed_mutex> one_at_a_time(m.places_mu, std::defer_lock);
+  if (!one_at_a_time.try_lock_until(deadline)) return std::nullopt;  // another caller is fetching
+  long long version = 0;
+  {
+    std::unique_lock<std::mutex> lock(m.mu);
+    if (!m.changed.wait_until(lock, deadline, [&] { return m.ready || m.stop; }) || m.stop) return std::nullopt;
+    version = m.manifest.version;
+  }
+  if (m.places_version == version) return m.places_bytes;
+  const double left = std::chrono::duration<double>(deadline - Clock::now()).count();
+  if (left <= 0) return std::nullopt;
+  try {
+    std::optional<std::string> got = fetch_places(m.cfg, version, left);
+    m.places_version = version;
+    m.places_bytes = std::move(got);
+  } catch (const Error& e) {
+    m.reports.problem(e.what());
+    return std::nullopt;
+  }
+  return m.places_bytes;
 }
 
 TileClientStatus TileClient::status() const {

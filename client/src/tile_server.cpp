@@ -5,6 +5,7 @@
 
 #include "client_text.hpp"
 #include "pl/common/error.hpp"
+#include "pl/schema/api_rules.hpp"
 #include "wire.hpp"
 
 namespace pl::client {
@@ -95,6 +96,35 @@ TileServer::Blob TileServer::blob(const CachedTile& t, long long version) {
   } catch (const Error& e) {
     throw UndecodableTile(e.what());
   }
+}
+
+std::optional<std::string> fetch_places(const TileClientConfig& cfg, long long version, double timeout_s) {
+  const std::string about = "the places of map " + cfg.map + " version " + std::to_string(version);
+  std::map<std::string, std::string> headers;
+  if (!cfg.token.empty()) headers["Authorization"] = "Bearer " + cfg.token;
+  api::HttpResponse res;
+  try {
+    api::HttpClient http(cfg.server, timeout_s, api::kMaxPlacesBytes);
+    res = http.get("/v1/maps/" + api::url_encode(cfg.map) + "/versions/" + std::to_string(version) + "/places", headers);
+  } catch (const std::exception& e) {
+    throw Error("cannot reach pl-server for " + about + " within " + seconds(timeout_s) + " (" + e.what() +
+                "): is it running and reachable? Ask again with a longer timeout");
+  }
+  if (res.status == 404) return std::nullopt;
+  if (res.status != 200) {
+    const std::string said = wire::error_text(res.body);
+    std::string what = about + ": " + cfg.server + " answered HTTP " + std::to_string(res.status) + (said.empty() ? "" : " \"" + said + "\"");
+    if (res.status == 401) what += ": set TileClientConfig::token to a token with the read role";
+    if (res.status == 403) what += ": the token needs the read role";
+    if (res.status >= 500) what += ": the server is failing or shutting down";
+    throw Error(what);
+  }
+  try {
+    wire::check_places(res.body, res.header("etag"));
+  } catch (const wire::WireError& e) {
+    throw Error(about + ": " + e.what());
+  }
+  return std::move(res.body);
 }
 
 }  // namespace pl::client

@@ -1,8 +1,9 @@
 // The tile client's conversation with pl-server (schema/openapi.yaml): one kept-alive HTTP/1.1
 // connection (HttpClient) with the read token, the manifest, ROI and blob requests, every answer
-// checked by wire:: before it is used, and the backoff after failures. A failed request is counted
+// checked by wire:: before it is used, and the backoff after failures (and, apart, the one-off
+// request of a version's places). A failed request is counted
 // and described in the ClientStatus (saying what to do and when the retry is), starts the backoff
-// and throws RequestFailed. Used by the background thread only. Private to pl_client.
+// and throws RequestFailed. TileServer is used by the background thread only. Private to pl_client.
 #pragma once
 
 #include <map>
@@ -69,5 +70,12 @@ class TileServer {
   Backoff backoff_;
   int last_status_ = 0;
 };
+
+// GET /v1/maps/{map}/versions/{v}/places for TileClient::places: on the caller's thread, over a
+// connection of its own (the background thread's is not shared) that waits at most timeout_s for
+// each step (connecting; sending and the answer). Returns the bytes, checked (wire::check_places),
+// or nothing when the server answers 404 (the version has no places, or the server does not have
+// the version). Throws pl::Error saying what failed and what to do. No backoff, no status counts.
+std::optional<std::string> fetch_places(const TileClientConfig& cfg, long long version, double timeout_s);
 
 }  // namespace pl::client

@@ -30,7 +30,7 @@ struct ScanJob {
   std::vector<float> times;
 };
 
-enum class StartRequest { None, At, Near };
+enum class StartRequest { None, At, Near, Global };
 
 }  // namespace
 
@@ -69,6 +69,16 @@ struct VehicleLocalizer::Impl {
 
   std::vector<MapTile> tiles_near(const Eigen::Vector2d& c, double r) {
     return store ? store->near(c, r) : client->tiles_near(c, r);
+  }
+
+  // Tiles round a place far from the vehicle (a search by place): the tile client is asked for
+  // them and waited for, briefly. On the worker.
+  std::vector<MapTile> tiles_far(const Eigen::Vector2d& c, double r) {
+    if (client) {
+      client->set_focus(c, c);
+      client->wait_for(c, r, std::min(cfg.start_wait_s, 5.0));
+    }
+    return tiles_near(c, r);
   }
 
   Eigen::Isometry3d to_lidar(const Eigen::Isometry3d& base) const { return base * cfg.base_from_lidar; }
@@ -134,8 +144,15 @@ struct VehicleLocalizer::Impl {
     }
   }
 
-  // A start round a rough pose (or the GPS fix) with this scan. Called with the lock held.
+  // A start with this scan: round a rough pose or the GPS fix (the scans search within the start
+  // search's reach), or anywhere on the map by its places. Called with the lock held.
   bool try_start(const ScanJob& job, std::unique_lock<std::mutex>& lk) {
+    if (request == StartRequest::Global) {
+      request = StartRequest::None;
+      loc->start_global(job.t, &odo);
+      started_at(loc->pose_at(job.t), job.t);
+      return true;
+    }
     Eigen::Isometry3d guess;
     registration::PoseSearch search = cfg.search;
     if (request == StartRequest::Near) {
@@ -155,22 +172,17 @@ struct VehicleLocalizer::Impl {
     lk.unlock();
     load_start_tiles(guess);
     lk.lock();
-    if (!loc->start_near(guess, job.t, &odo, job.points, job.rings, search)) {
-      started = false;
-      error = "the first scan registers to the map nowhere within " + std::to_string(search.radius_m) +
-              " m of the start guess; give a closer pose";
-      return false;
-    }
+    loc->start_search(guess, job.t, &odo, search.radius_m, search.yaw_range_deg);
     request = StartRequest::None;
-    started_at(loc->pose_at(job.t), job.t);
+    started_at(guess, job.t);
     return true;
   }
 
   // One scan: predict, focus the tiles, prepare, register (unlocked), fuse. Called with the lock held.
   void process(ScanJob& job, std::unique_lock<std::mutex>& lk) {
     const double t = job.t;
-    const Prediction predicted = loc->predict(t);
-    if (!job.times.empty()) deskew(job);
+    Prediction predicted = loc->predict(t);
+    if (!job.times.empty()) predicted.compensated = deskew(job);
     lk.unlock();
     const Eigen::Vector2d xy = predicted.pose.translation().head<2>();
     const Eigen::Vector2d velocity =
@@ -201,10 +213,11 @@ struct VehicleLocalizer::Impl {
 
   // Each point moved to where the sensor was at the scan's time, by the odometry between its own
   // time and the scan's (points whose time the odometry does not cover stay as they are).
-  void deskew(ScanJob& job) const {
-    if (job.times.size() != job.points.size()) return;
+  // Returns whether the odometry covered the scan's time (else the localizer compensates by azimuth).
+  bool deskew(ScanJob& job) const {
+    if (job.times.size() != job.points.size()) return false;
     const auto at_scan = odo.at(job.t);
-    if (!at_scan) return;
+    if (!at_scan) return false;
     const Eigen::Isometry3d inv = at_scan->inverse();
     for (std::size_t i = 0; i < job.points.size(); ++i) {
       const auto at_point = odo.at(job.t + job.times[i]);
@@ -215,6 +228,7 @@ struct VehicleLocalizer::Impl {
       p.y = static_cast<float>(q.y());
       p.z = static_cast<float>(q.z());
     }
+    return true;
   }
 };
 
@@ -245,6 +259,14 @@ VehicleLocalizer::VehicleLocalizer(const VehicleLocalizerConfig& cfg) : impl_(st
   Impl* raw = impl_.get();
   m.loc = std::make_unique<Localizer>(cfg.localizer, m.tile_size,
                                       [raw](const Eigen::Vector2d& c, double r) { return raw->tiles_near(c, r); });
+  // The places of the version, for starts and relocalization anywhere on the map (none: searches
+  // stay round the prediction).
+  const std::optional<std::string> places = m.store ? m.store->places() : m.client->places(cfg.ready_timeout_s);
+  if (places) {
+    const std::string source = "places of map " + cfg.tiles.map + " version " + std::to_string(m.version);
+    m.loc->set_places(std::make_shared<const registration::PlaceIndex>(registration::PlaceIndex::decode(*places, source)),
+                      [raw](const Eigen::Vector2d& c, double r) { return raw->tiles_far(c, r); });
+  }
   m.worker = std::thread([raw] { raw->run(); });
 }
 
@@ -274,6 +296,17 @@ void VehicleLocalizer::start_near(const Eigen::Isometry3d& rough_base_in_map, do
   impl_->started = false;
   impl_->request = StartRequest::Near;
   impl_->request_pose = impl_->to_lidar(rough_base_in_map);
+  impl_->request_t = t;
+}
+
+void VehicleLocalizer::start_global(double t) {
+  if (!std::isfinite(t)) throw Error("VehicleLocalizer::start_global: the time must be finite");
+  if (!impl_->loc->has_places())
+    throw Error("VehicleLocalizer::start_global: map " + impl_->cfg.tiles.map + " version " + std::to_string(impl_->version) +
+                " has no places to search by: rebuild it with pl-map build and pl-map tile, or start from a pose");
+  std::lock_guard<std::mutex> lk(impl_->m);
+  impl_->started = false;
+  impl_->request = StartRequest::Global;
   impl_->request_t = t;
 }
 

@@ -124,4 +124,19 @@ TileCloud verified_tile(std::string_view bytes, const std::string& hash) {
   return decode_tile(bytes);
 }
 
+void check_places(std::string_view bytes, std::string_view etag) {
+  if (bytes.empty()) bad("the server sent empty places (places are never empty)");
+  if (bytes.size() > api::kMaxPlacesBytes)
+    bad("the server sent " + std::to_string(bytes.size()) + " bytes of places, more than the " +
+        std::to_string(api::kMaxPlacesBytes >> 20) + " MiB places may have");
+  if (etag.rfind("W/", 0) == 0) etag.remove_prefix(2);
+  if (etag.size() < 2 || etag.front() != '"' || etag.back() != '"') return;  // no ETag, or not one of a content hash
+  const std::string_view named = etag.substr(1, etag.size() - 2);
+  if (!is_hash(named)) return;
+  const std::string got = store::content_hash(bytes);
+  if (got != named)
+    bad("the server sent " + std::to_string(bytes.size()) + " bytes of places whose SHA-256 is " + got + ", not " +
+        std::string(named) + " as its ETag says (a proxy altering responses, or a damaged store?)");
+}
+
 }  // namespace pl::client::wire

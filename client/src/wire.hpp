@@ -1,5 +1,5 @@
 // What the tile client reads from pl-server's answers (schema/openapi.yaml): the manifest, region-
-// of-interest answers, error bodies and tile bytes. Pure functions over the bytes that arrived, so
+// of-interest answers, error bodies, tile bytes and places. Pure functions over the bytes that arrived, so
 // that they are tested and fuzzed without a network: anything a server (or whatever sits between it
 // and the vehicle) sends is refused with a WireError naming what is wrong, never trusted.
 // Private to pl_client; shared by the tile client and the client_answers fuzz target.
@@ -43,5 +43,10 @@ std::string error_text(std::string_view body);
 // Throws WireError for bytes that do not match (naming both hashes); pl::Error for bytes that do
 // but do not decode (a tile the store holds broken).
 TileCloud verified_tile(std::string_view bytes, const std::string& hash);
+
+// A version's places fetched with this ETag (the header's value; empty when there was none): 1 byte
+// to api::kMaxPlacesBytes, and when the ETag names a content hash ("HASH", or W/"HASH" as a proxy
+// may weaken it) the bytes' SHA-256 must be that hash. Throws WireError (naming both hashes).
+void check_places(std::string_view bytes, std::string_view etag);
 
 }  // namespace pl::client::wire

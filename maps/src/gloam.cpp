@@ -12,10 +12,18 @@
 #include "pl/common/cloud_io.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/scan.hpp"
+#include "pl/maps/import.hpp"
+#include "pl/registration/place_index.hpp"
 
 namespace pl::maps {
 
 namespace {
+
+// Real recordings (no meta.json: KITTI) sweep while the car moves; pl-sim's scans are taken at one
+// pose unless it was told to sweep (its meta.json then says so).
+bool deskews(const GloamConfig& cfg, const Dataset& ds) {
+  return cfg.deskew == Deskew::On || (cfg.deskew == Deskew::Auto && !ds.has_meta_file);
+}
 
 std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
 std::string format(const char* fmt, ...) {
@@ -90,8 +98,7 @@ Trajectory lidar_poses(const Dataset& ds, const GloamConfig& cfg, const std::vec
   };
   Trajectory placed;
   LoamConfig lc = cfg.loam;
-  // Real recordings (no meta.json: KITTI) sweep while the car moves; pl-sim's scans are taken at one pose.
-  lc.deskew = cfg.deskew == Deskew::On || (cfg.deskew == Deskew::Auto && !ds.has_meta_file);
+  lc.deskew = deskews(cfg, ds);
   if (ds.meta.sensor.rate_hz > 0) lc.scan_period_s = 1.0 / ds.meta.sensor.rate_hz;
   LoamOdometry odometry(lc);
   // Without GPS: started at the first ground-truth pose when there is one, so that the map lies in
@@ -219,7 +226,12 @@ GloamResult build_gloam_map(const Dataset& ds, const GloamConfig& cfg, const Glo
   result.merged_scans = (ds.size() + cfg.merge.every - 1) / cfg.merge.every;
   result.voxel_m = cfg.merge.voxel_m;
   const std::size_t merged = result.merged_scans;
-  result.map = build_map_from_poses(ds, result.poses, cfg.merge,
+  MapBuildConfig merge = cfg.merge;
+  // The merge corrects the sweep only when told: on drive 0005 (KITTI raw) the azimuth-timed
+  // correction made the localizer's error larger, either way round (docs/benchmarks.md).
+  merge.deskew = cfg.deskew == Deskew::On;
+  if (ds.meta.sensor.rate_hz > 0) merge.sweep_s = 1.0 / ds.meta.sensor.rate_hz;
+  result.map = build_map_from_poses(ds, result.poses, merge,
                                     [&](std::size_t done, std::size_t) { tell.progress("merging scans", done, merged); });
   return result;
 }
@@ -239,8 +251,22 @@ std::string write_gloam_outputs(const GloamResult& r, const std::string& map_pcd
     out += format("wrote %s: %zu LiDAR poses (%s), one per scan\n", trajectory.c_str(), r.poses.size(), r.source.c_str());
   }
   write_pcd(map_pcd, r.map.points, r.map.intensity, r.origin);
-  return out + format("wrote %s: %zu points from %zu scans at %.2f m voxels\n", map_pcd.c_str(), r.map.points.size(),
-                      r.merged_scans, r.voxel_m);
+  out += format("wrote %s: %zu points from %zu scans at %.2f m voxels\n", map_pcd.c_str(), r.map.points.size(), r.merged_scans,
+                r.voxel_m);
+  if (!r.map.places.empty()) {
+    const std::string path = places_path(map_pcd);
+    const std::string bytes = r.map.places.encode();
+    const std::string partial = path + ".partial";
+    {
+      std::ofstream f(partial, std::ios::binary | std::ios::trunc);
+      f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+      if (!f) throw Error(partial + ": cannot write the places");
+    }
+    if (std::rename(partial.c_str(), path.c_str()) != 0) throw Error(path + ": cannot write the places (rename failed)");
+    out += format("wrote %s: %zu places for relocalization (pl-map tile stores them with the map)\n", path.c_str(),
+                  r.map.places.places().size());
+  }
+  return out;
 }
 
 }  // namespace pl::maps

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <system_error>
 #include <vector>
@@ -12,6 +14,7 @@
 #include "pl/common/voxel.hpp"
 #include "pl/maps/map_builder.hpp"
 #include "pl/registration/normals.hpp"
+#include "pl/registration/place_index.hpp"
 
 namespace pl::maps {
 
@@ -82,6 +85,15 @@ ImportResult import_cloud(const std::string& db, const std::string& name, const 
   if (cloud.points.empty()) throw Error(source + ": no points");
 
   ImportResult r;
+  // The places are read and checked before the store is touched.
+  std::string places;
+  if (!cfg.places.empty()) {
+    std::ifstream f(cfg.places, std::ios::binary);
+    if (!f) throw Error(cfg.places + ": cannot read the places (pl-map build writes them beside its map; give --places none to store none)");
+    places.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+    r.places = registration::PlaceIndex::decode(places, cfg.places).places().size();
+    if (r.places == 0) places.clear();
+  }
   std::vector<float> intensity;
   const Points3d pts = voxel_downsample(cloud.points, cloud.intensity, cfg.voxel_m, intensity);
   r.points = pts.size();
@@ -121,6 +133,8 @@ ImportResult import_cloud(const std::string& db, const std::string& name, const 
     }
     for (const auto& [key, hash] : parent_hash)
       if (!tiles.count(key)) r.removed += store->delete_tile(name, r.version.number, key);
+    if (!places.empty()) store->put_places(name, r.version.number, places);
+    else store->delete_places(name, r.version.number);
     store->log_upload(name, r.version.number, "tile", note, cfg.who);
     tx.commit();
   } catch (...) {
@@ -131,6 +145,13 @@ ImportResult import_cloud(const std::string& db, const std::string& name, const 
     throw;
   }
   return r;
+}
+
+std::string places_path(const std::string& cloud) {
+  const std::size_t slash = cloud.find_last_of('/');
+  const std::size_t dot = cloud.find_last_of('.');
+  const bool has_ext = dot != std::string::npos && (slash == std::string::npos || dot > slash + 1);
+  return (has_ext ? cloud.substr(0, dot) : cloud) + ".places";
 }
 
 }  // namespace pl::maps

@@ -17,6 +17,7 @@
 #include "pl/common/pose.hpp"
 #include "pl/registration/cell_table.hpp"
 #include "pl/registration/gauss_newton.hpp"
+#include "pl/registration/motion.hpp"
 #include "pl/registration/normals.hpp"
 
 namespace pl::maps {
@@ -142,15 +143,7 @@ struct Match {
   registration::FeatureTarget target;
 };
 
-// d scaled by f: rotation angle and translation times f (constant velocity over a fraction or a
-// multiple of an interval).
-Pose scale_motion(const Pose& d, double f) {
-  const Eigen::AngleAxisd aa(d.linear());
-  Pose out = Pose::Identity();
-  out.linear() = Eigen::AngleAxisd(f * aa.angle(), aa.axis()).toRotationMatrix();
-  out.translation() = f * d.translation();
-  return out;
-}
+using registration::scale_motion;
 
 
 // Normal equations of the matches at (R, t), Cauchy-weighted, pairs beyond max_res dropped.
@@ -291,7 +284,7 @@ LoamFeatures extract_loam_features(const Scan& scan, const std::vector<std::uint
   // ahead, +0.5 back on the right).
   auto times = [](const std::vector<Eigen::Vector3f>& pts, std::vector<float>& t) {
     t.resize(pts.size());
-    for (std::size_t i = 0; i < pts.size(); ++i) t[i] = static_cast<float>(-std::atan2(pts[i].y(), pts[i].x()) / (2.0 * M_PI));
+    for (std::size_t i = 0; i < pts.size(); ++i) t[i] = registration::sweep_share_from_azimuth(pts[i]);
   };
   times(out.edges, out.edge_time);
   times(out.planes, out.plane_time);
@@ -386,16 +379,8 @@ LoamFrame LoamOdometry::add(const Scan& scan, const std::vector<std::uint16_t>& 
     // Motion over one sweep from the prediction, applied to each feature at its own time.
     const double dt = t - m.t_last;
     const Pose sweep = scale_motion(m.last.inverse() * out.pose, dt > 0 ? cfg.scan_period_s / dt : 0.0);
-    const Eigen::AngleAxisd aa(sweep.linear());
-    auto correct = [&](std::vector<Eigen::Vector3f>& pts, const std::vector<float>& times) {
-      for (std::size_t i = 0; i < pts.size(); ++i) {
-        const double s = times[i];
-        const Eigen::Vector3d p = Eigen::AngleAxisd(s * aa.angle(), aa.axis()) * pts[i].cast<double>() + s * sweep.translation();
-        pts[i] = p.cast<float>();
-      }
-    };
-    correct(f.edges, f.edge_time);
-    correct(f.planes, f.plane_time);
+    registration::compensate_motion(f.edges, sweep, f.edge_time);
+    registration::compensate_motion(f.planes, sweep, f.plane_time);
   }
 
   if (m.scans == 0) {

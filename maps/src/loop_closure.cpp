@@ -18,6 +18,12 @@
 namespace pl::maps {
 namespace {
 
+using registration::compare_descriptors;
+using registration::DescriptorMatch;
+using registration::make_place_descriptor;
+using registration::PlaceDescriptor;
+using registration::ring_key_distance;
+
 constexpr double kDeg = M_PI / 180.0;
 constexpr double kFineCellM = 0.5;    // the local map's cells for ICP (pairs up to 0.5 m)
 constexpr double kCoarseCellM = 2.0;  // and for the seeds of a search by place

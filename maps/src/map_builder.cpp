@@ -5,8 +5,42 @@
 #include <cmath>
 
 #include "pl/common/error.hpp"
+#include "pl/registration/motion.hpp"
 
 namespace pl::maps {
+namespace {
+
+// The place of a scan at `pose`: its descriptor with the points turned level (the pose's roll and
+// pitch taken out, its heading kept in the sensor frame), so that a level scan taken there later
+// matches it.
+registration::Place place_of(const Scan& scan, const Eigen::Isometry3d& pose, const registration::PlaceDescriptorConfig& cfg) {
+  registration::Place place;
+  place.position = pose.translation();
+  place.yaw = registration::heading_of(pose);
+  const Eigen::Matrix3d level = Eigen::AngleAxisd(-place.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * pose.linear();
+  std::vector<Eigen::Vector3f> points;
+  points.reserve(scan.size());
+  for (const auto& p : scan) points.push_back((level * Eigen::Vector3d(p.x, p.y, p.z)).cast<float>());
+  place.descriptor = registration::make_place_descriptor(points, cfg);
+  return place;
+}
+
+// The scan's points moved to where the sensor was at its time: the motion between the neighbouring
+// poses, at constant velocity, scaled to one sweep (a drive of one scan: as it is).
+void deskew(Scan& scan, const Trajectory& poses, std::size_t i, double sweep_s) {
+  const std::size_t a = i > 0 ? i - 1 : i, b = i + 1 < poses.size() ? i + 1 : i;
+  if (a == b || poses.times.size() != poses.size()) return;
+  const double dt = poses.times[b] - poses.times[a];
+  if (!(dt > 0)) return;
+  const Eigen::Isometry3d sweep = registration::scale_motion(poses.poses[a].inverse() * poses.poses[b], sweep_s / dt);
+  std::vector<Eigen::Vector3f> points;
+  points.reserve(scan.size());
+  for (const auto& p : scan) points.emplace_back(p.x, p.y, p.z);
+  registration::compensate_motion(points, sweep);
+  for (std::size_t k = 0; k < scan.size(); ++k) scan[k].x = points[k].x(), scan[k].y = points[k].y(), scan[k].z = points[k].z();
+}
+
+}  // namespace
 
 VoxelAccumulator::VoxelAccumulator(double voxel) : inv_(1.0 / voxel) {
   if (!(voxel > 0.0)) throw Error("voxel size must be a positive number of metres");
@@ -40,6 +74,7 @@ MapCloud build_map_from_poses(const Dataset& ds, const Trajectory& poses, const 
     throw Error("the map needs one pose per scan: " + std::to_string(poses.size()) + " poses for " + std::to_string(ds.size()) + " scans");
   if (cfg.every == 0) throw Error("every must be at least 1");
   VoxelAccumulator acc(cfg.voxel_m);
+  std::vector<registration::Place> places;
   ScanPrepConfig prep = cfg.scan;
   prep.sensor_beams = ds.meta.sensor.beams;
   prep.voxel_m = 0.0;  // the accumulator voxelizes, exactly, in the world frame
@@ -51,11 +86,16 @@ MapCloud build_map_from_poses(const Dataset& ds, const Trajectory& poses, const 
     if (prep.beams > 0 && prep.beams < prep.sensor_beams) rings = ds.rings(scan);
     Scan kept = prepare_scan(scan, rings, prep);
     const Pose& pose = poses.poses[i];
+    if (cfg.deskew) deskew(kept, poses, i, cfg.sweep_s);
     for (const auto& p : kept) acc.add(pose * Eigen::Vector3d(p.x, p.y, p.z), p.intensity);
+    if (cfg.place_spacing_m > 0 &&
+        (places.empty() || (places.back().position - pose.translation()).norm() >= cfg.place_spacing_m))
+      places.push_back(place_of(kept, pose, cfg.place));
     if (progress) progress(++done, total);
   }
   MapCloud out;
   out.points = acc.centroids(out.intensity);
+  out.places = registration::PlaceIndex(cfg.place, std::move(places));
   return out;
 }
 

@@ -1,6 +1,6 @@
 // The map store over SQLite: opening and migrating, maps and versions (tiles, blobs, tokens and the
-// upload log: store_tiles.cpp). See store.hpp for the semantics and schema/001_initial.sql for the
-// tables. All values reach SQL through bound parameters; the only SQL built from strings are
+// upload log: store_tiles.cpp; places: store_places.cpp). See store.hpp for the semantics and
+// schema/NNN_*.sql for the tables. All values reach SQL through bound parameters; the only SQL built from strings are
 // PRAGMAs and savepoints whose text comes from this file (integers and fixed identifiers).
 #include "pl/schema/store.hpp"
 
@@ -191,13 +191,13 @@ VersionState require_version(const Db& db, const std::string& map, std::int64_t 
   return *state;
 }
 
-// Tile writes go to staged versions only.
+// Writes of tiles and places go to staged versions only.
 void require_staged(const Db& db, const std::string& map, std::int64_t map_id,
-                    std::int64_t number) {
+                    std::int64_t number, const char* what) {
   VersionState state = require_version(db, map, map_id, number);
   if (state != VersionState::Staged)
     throw Error(db.path() + ": map " + map + " version " + num(number) + " is " + state_name(state) +
-                ": tiles can only be changed in a staged version (create a new version)");
+                ": " + what + " can only be changed in a staged version (create a new version)");
 }
 
 // ---- tiles ---------------------------------------------------------------------------------------
@@ -482,6 +482,14 @@ VersionInfo Store::create_version(const std::string& map, std::optional<std::int
          "INSERT INTO tiles (map_id, version, tx, ty, hash, points, bytes, min_x, min_y, min_z, max_x, max_y, max_z) "
          "SELECT map_id, ?3, tx, ty, hash, points, bytes, min_x, min_y, min_z, max_x, max_y, max_z FROM tiles "
          "WHERE map_id = ?1 AND version = ?2 ORDER BY tx, ty")
+        .bind_int64(1, map_id)
+        .bind_int64(2, *parent)
+        .bind_int64(3, number)
+        .run();
+    // The places are one row of their own, bytes included.
+    Stmt(db,
+         "INSERT INTO places (map_id, version, hash, bytes, size) "
+         "SELECT map_id, ?3, hash, bytes, size FROM places WHERE map_id = ?1 AND version = ?2")
         .bind_int64(1, map_id)
         .bind_int64(2, *parent)
         .bind_int64(3, number)

@@ -1,5 +1,5 @@
-// What store.cpp and store_tiles.cpp share: the file's identity, the row readers and lookups of
-// maps, versions and tiles. Private to pl_schema.
+// What store.cpp, store_tiles.cpp and store_places.cpp share: the file's identity, the row readers
+// and lookups of maps, versions and tiles. Private to pl_schema.
 #pragma once
 
 #include <cstdint>
@@ -26,8 +26,10 @@ std::string read_timestamp(const sqlite::Row& row, int col, const char* column);
 
 std::optional<std::int64_t> find_map_id(const sqlite::Db& db, const std::string& name);
 std::int64_t require_map(const sqlite::Db& db, const std::string& name);  // throws for an unknown map
-// Throws unless the version exists and is staged (tile writes go to staged versions only).
-void require_staged(const sqlite::Db& db, const std::string& map, std::int64_t map_id, std::int64_t number);
+// Throws unless the version exists and is staged (writes of tiles and places go to staged versions
+// only); `what` names what the caller writes in the message.
+void require_staged(const sqlite::Db& db, const std::string& map, std::int64_t map_id, std::int64_t number,
+                    const char* what = "tiles");
 
 TileRecord read_tile(const sqlite::Stmt& st);  // a row of kTileColumns, checked
 std::optional<std::string> tile_hash(const sqlite::Db& db, std::int64_t map_id, std::int64_t version, const TileKey& key);

@@ -245,16 +245,24 @@ struct Api::Impl {
     return json_response(200, {{"version", version}, {"tile_size", m.tile_size}, {"tiles", tiles}, {"drop", drop}}, "/v1/maps/{map}/roi");
   }
 
-  ApiResponse blob_response(const ApiRequest& req, const std::string& hash, const std::string& route) {
+  // Bytes named by their content hash: the ETag and caching headers, and 304 when If-None-Match
+  // names them (else status 200, for the caller to add the bytes).
+  static constexpr const char* kImmutable = "public, max-age=31536000, immutable";
+  static ApiResponse by_hash(const ApiRequest& req, const std::string& hash, const std::string& route, const char* cache_control) {
     std::string etag = "\"" + hash + "\"";
     ApiResponse r;
     r.route = route;
-    r.headers = {{"ETag", etag}, {"Cache-Control", "public, max-age=31536000, immutable"}};
+    r.headers = {{"ETag", etag}, {"Cache-Control", cache_control}};
     if (!req.if_none_match.empty() && (req.if_none_match == "*" || req.if_none_match.find(etag) != std::string::npos)) {
       r.status = 304;
       r.content_type.clear();
-      return r;
     }
+    return r;
+  }
+
+  ApiResponse blob_response(const ApiRequest& req, const std::string& hash, const std::string& route) {
+    ApiResponse r = by_hash(req, hash, route, kImmutable);
+    if (r.status == 304) return r;
     auto bytes = blobs.get(hash);
     if (!bytes) {
       auto b = db().blob(hash);
@@ -302,6 +310,47 @@ struct Api::Impl {
                          "/v1/maps/{map}/versions/{v}/tiles");
   }
 
+  // The places of a version. A published or retired version's places never change: cached like
+  // tiles (in memory by content hash, and by HTTP caches for good). A staged version's may change
+  // (and need a token to read): its answer is revalidated every time, and its ETag is the hash of
+  // the very bytes sent.
+  ApiResponse get_places(const ApiRequest& req, const std::string& name, const std::string& vs) {
+    const std::string route = "/v1/maps/{map}/versions/{v}/places";
+    bool staged = check_reader(req);
+    auto m = need_map(name);
+    auto info = need_version(m, parse_version(vs), staged);
+    const std::string none = "map " + name + " version " + std::to_string(info.number) +
+                             " has no places: rebuild it with pl-map build and pl-map tile";
+    if (info.state == store::VersionState::Staged) {
+      auto bytes = db().places(name, info.number);
+      if (!bytes) fail(404, none);
+      const std::string hash = store::content_hash(*bytes);
+      ApiResponse r = by_hash(req, hash, route, "private, no-cache");
+      if (r.status == 304) return r;
+      r.content_type = "application/octet-stream";
+      r.blob = std::make_shared<const std::string>(std::move(*bytes));
+      r.blob_hash = hash;
+      return r;
+    }
+    auto hash = db().places_hash(name, info.number);
+    if (!hash) fail(404, none);
+    ApiResponse r = by_hash(req, *hash, route, kImmutable);
+    if (r.status == 304) return r;
+    // Keyed apart from tile blobs, so that GET /v1/blobs/{hash} never answers with places.
+    const std::string key = "places/" + *hash;
+    auto bytes = blobs.get(key);
+    if (!bytes) {
+      auto b = db().places(name, info.number);
+      if (!b) fail(404, none);
+      bytes = std::make_shared<const std::string>(std::move(*b));
+      blobs.put(key, bytes);
+    }
+    r.content_type = "application/octet-stream";
+    r.blob = std::move(bytes);
+    r.blob_hash = *hash;
+    return r;
+  }
+
   store::VersionInfo need_staged(const ApiRequest& req, const std::string& name, const std::string& vs) {
     require_role(req, store::Role::Upload);
     auto m = need_map(name);
@@ -327,6 +376,25 @@ struct Api::Impl {
                              up.max[0], up.max[1], up.max[2]);
     db().log_upload(name, info.number, "put_tile", std::to_string(key.tx) + "/" + std::to_string(key.ty) + " " + rec.hash, "api");
     return json_response(200, {{"tx", key.tx}, {"ty", key.ty}, {"hash", rec.hash}, {"points", rec.points}, {"bytes", rec.bytes}}, route);
+  }
+
+  ApiResponse put_places(const ApiRequest& req, const std::string& name, const std::string& vs) {
+    auto info = need_staged(req, name, vs);
+    if (req.body.empty()) fail(422, "the body is empty: PUT the places file that pl-map build wrote (1 byte to 64 MiB)");
+    db().put_places(name, info.number, req.body);
+    const std::string hash = store::content_hash(req.body);
+    db().log_upload(name, info.number, "put_places", hash + " " + std::to_string(req.body.size()) + " bytes", "api");
+    return json_response(200, {{"version", info.number}, {"hash", hash}, {"bytes", req.body.size()}},
+                         "/v1/maps/{map}/versions/{v}/places");
+  }
+
+  // A staged version starts with a copy of its parent's places: an upload of a map without places
+  // removes them.
+  ApiResponse delete_places(const ApiRequest& req, const std::string& name, const std::string& vs) {
+    auto info = need_staged(req, name, vs);
+    if (!db().delete_places(name, info.number)) fail(404, "map " + name + " version " + std::to_string(info.number) + " has no places");
+    db().log_upload(name, info.number, "delete_places", "", "api");
+    return json_response(200, {{"deleted", true}}, "/v1/maps/{map}/versions/{v}/places");
   }
 
   ApiResponse delete_tile(const ApiRequest& req, const std::string& name, const std::string& vs, const std::string& txs, const std::string& tys) {
@@ -419,6 +487,12 @@ struct Api::Impl {
       if (only(m == "POST", "/v1/maps/{map}/versions/{v}/publish", kPostOnly)) return options(kPostOnly);
       return publish(req, map, s[4]);
     }
+    if (s.size() == 6 && s[5] == "places") {
+      const char* allow = "GET, HEAD, PUT, DELETE, OPTIONS";
+      if (only(get || m == "PUT" || m == "DELETE", "/v1/maps/{map}/versions/{v}/places", allow)) return options(allow);
+      if (get) return get_places(req, map, s[4]);
+      return m == "PUT" ? put_places(req, map, s[4]) : delete_places(req, map, s[4]);
+    }
     if (s.size() == 6 && s[5] == "tiles") {
       if (only(get, "/v1/maps/{map}/versions/{v}/tiles", kReadOnly)) return options(kReadOnly);
       return list_tiles(req, map, s[4]);
@@ -461,6 +535,11 @@ bool Api::ready() {
 
 std::size_t Api::body_limit(const std::string& method, const std::string& target) {
   if (method == "PUT" && target.find("/tiles/") != std::string::npos) return 64u << 20;
+  if (method == "PUT") {
+    const Target t = parse_target(target);  // as route() reads it
+    const auto& s = t.segments;
+    if (s.size() == 6 && s[0] == "v1" && s[1] == "maps" && s[3] == "versions" && s[5] == "places") return api::kMaxPlacesBytes;
+  }
   if (method == "POST") return 64u << 10;
   return 0;
 }

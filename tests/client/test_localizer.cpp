@@ -10,6 +10,8 @@
 #include <cmath>
 #include <filesystem>
 #include <random>
+#include <sstream>
+#include <string>
 #include <thread>
 
 #include "pl/client/localizer.hpp"
@@ -141,8 +143,15 @@ TEST(Localizer, StartsFiveMetresAndThirtyDegreesOff) {
   pl::Scan scan;
   for (const auto& p : scan_of(surfaces, truth, 0.5, 60.0, 5)) scan.push_back({p.x(), p.y(), p.z(), 0.5f});
   const Eigen::Isometry3d guess = truth * pl::make_pose(3.0, -4.0, 0.0, 0, 0, 30.0 * M_PI / 180.0);
-  ASSERT_TRUE(loc.start_near(guess, 0.0, nullptr, scan, {}));
-  EXPECT_LT((loc.pose_at(0.0).translation() - truth.translation()).norm(), 0.05);
+  // 5 m and 30 deg off, within the start's 6 m and 45 deg: the first scan searches and is confirmed
+  // by the second (the vehicle standing still).
+  loc.start_search(guess, 0.0, nullptr, 6.0, 45.0);
+  const pl::client::ScanReport first = loc.process(0.0, scan, {});
+  EXPECT_EQ(first.basin, pl::client::Basin::Search);
+  EXPECT_NE(first.health, pl::client::Health::Ok);
+  const pl::client::ScanReport second = loc.process(0.1, scan, {});
+  EXPECT_EQ(second.health, pl::client::Health::Ok) << second.note;
+  EXPECT_LT((loc.pose_at(0.1).translation() - truth.translation()).norm(), 0.05);
 }
 
 // --- end to end: pl-sim -> pl-map -> pl-server -> pl-localize -> pl-eval ---------------------------
@@ -176,6 +185,16 @@ nlohmann::json ape(const std::string& est, const std::string& gt) {
   return nlohmann::json::parse(r.output.substr(r.output.find('{')));
 }
 
+// The "N lost" of pl-localize's summary. A GPS start searches round the fix: its first scans are lost
+// or degraded until a verified pose (here one scan is lost: the first search's pose is confirmed
+// wrong by the next scan and searched again); none after.
+int lost_scans(const std::string& out) {
+  const auto at = out.find(" lost;");
+  if (at == std::string::npos) return -1;
+  const auto from = out.rfind(' ', at - 1);
+  return std::stoi(out.substr(from + 1, at - from - 1));
+}
+
 TEST(PlLocalize, OverHttpWithSixteenBeamsAndEncoders) {
   const std::string data = drive_and_map();
   const pl::test::TempDir dir;
@@ -186,7 +205,8 @@ TEST(PlLocalize, OverHttpWithSixteenBeamsAndEncoders) {
                                " --out " + (dir / "poses.tum") + " --kitti-out " + (dir / "poses.txt") + " --timing " +
                                (dir / "timing.csv"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("0 lost"), std::string::npos) << r.output;
+  EXPECT_GE(lost_scans(r.output), 0) << r.output;
+  EXPECT_LE(lost_scans(r.output), 1) << r.output;
   const auto e = ape(dir / "poses.txt", data + "/drive/poses.txt");
   EXPECT_EQ(e["matched"].get<int>(), 60);
   EXPECT_LT(e["mean"].get<double>(), 0.05) << e.dump();
@@ -196,6 +216,14 @@ TEST(PlLocalize, OverHttpWithSixteenBeamsAndEncoders) {
   const std::string timing = pl::test::read_file(dir / "timing.csv");
   EXPECT_EQ(std::count(timing.begin(), timing.end(), '\n'), 61);
   EXPECT_NE(timing.find("registration_ms"), std::string::npos);
+  std::istringstream lines(timing);
+  std::string line;
+  std::getline(lines, line);
+  for (int k = 0; std::getline(lines, line); ++k) {
+    if (k >= 3) {
+      EXPECT_EQ(line.find(",lost,"), std::string::npos) << "scan " << k << " lost after the start: " << line;
+    }
+  }
 }
 
 TEST(PlLocalize, ServerKilledMidDriveLocalizationContinuesOnTheCache) {
@@ -213,7 +241,8 @@ TEST(PlLocalize, ServerKilledMidDriveLocalizationContinuesOnTheCache) {
   drive.join();
   const std::string out = pl::test::read_file(dir / "out.txt");
   EXPECT_NE(out.find("60 scans"), std::string::npos) << out;
-  EXPECT_NE(out.find("0 lost"), std::string::npos) << out;
+  EXPECT_GE(lost_scans(out), 0) << out;
+  EXPECT_LE(lost_scans(out), 1) << out;
   const auto e = ape(dir / "poses.txt", data + "/drive/poses.txt");
   EXPECT_EQ(e["matched"].get<int>(), 60);
   EXPECT_LT(e["mean"].get<double>(), 0.05) << e.dump();
@@ -222,7 +251,8 @@ TEST(PlLocalize, ServerKilledMidDriveLocalizationContinuesOnTheCache) {
                                    " --map town --beams 16 --init gps --count 20 --cache " + (dir / "cache.sqlite") +
                                    " --out " + (dir / "again.tum") + " --kitti-out " + (dir / "again.txt"));
   ASSERT_EQ(again.exit_code, 0) << again.output;
-  EXPECT_NE(again.output.find("0 lost"), std::string::npos) << again.output;
+  EXPECT_GE(lost_scans(again.output), 0) << again.output;
+  EXPECT_LE(lost_scans(again.output), 1) << again.output;
   EXPECT_LT(ape(dir / "again.txt", data + "/drive/poses.txt")["mean"].get<double>(), 0.05);
 }
 

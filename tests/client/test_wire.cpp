@@ -16,6 +16,7 @@
 #include "pl/common/error.hpp"
 #include "pl/common/tile_codec.hpp"
 #include "pl/schema/store.hpp"
+#include "tile_server.hpp"
 #include "wire.hpp"
 
 namespace wire = pl::client::wire;
@@ -141,6 +142,39 @@ TEST(Wire, TileBytesAreCheckedAgainstTheirHashBeforeTheyAreDecoded) {
   // Bytes that match their hash but are no tile (a damaged store): a pl::Error, not a WireError.
   const std::string junk = "DRACO junk";
   EXPECT_THROW(wire::verified_tile(junk, pl::store::content_hash(junk)), pl::Error);
+}
+
+TEST(Wire, PlacesAreCheckedAgainstTheirEtag) {
+  const std::string places("descriptors\0of the map", 22), hash = pl::store::content_hash(places);
+  EXPECT_NO_THROW(wire::check_places(places, "\"" + hash + "\""));
+  EXPECT_NO_THROW(wire::check_places(places, "W/\"" + hash + "\""));  // weakened by a proxy
+  EXPECT_NO_THROW(wire::check_places(places, ""));                     // no ETag: nothing to check against
+  EXPECT_NO_THROW(wire::check_places(places, "\"v7\""));                 // an ETag that names no content hash
+  std::string altered = places;
+  altered[3] ^= 0x20;
+  const std::string why = wire_error([&] { wire::check_places(altered, "\"" + hash + "\""); });
+  EXPECT_NE(why.find(pl::store::content_hash(altered)), std::string::npos) << why;
+  EXPECT_NE(why.find("not " + hash), std::string::npos) << why;
+  EXPECT_NE(wire_error([&] { wire::check_places("", ""); }).find("empty places"), std::string::npos);
+}
+
+TEST(Wire, PlacesThatDoNotMatchTheirEtagAreRefused) {
+  const std::string body = "places a proxy changed";
+  HostileServer server("HTTP/1.1 200 OK\r\nContent-Type: application/octet-stream\r\nETag: \"" + kHash +
+                       "\"\r\nContent-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body);
+  pl::client::TileClientConfig cfg;
+  cfg.server = server.url();
+  cfg.map = "town";
+  try {
+    pl::client::fetch_places(cfg, 3, 5.0);
+    FAIL() << "accepted places that do not match their ETag";
+  } catch (const pl::Error& e) {
+    const std::string why = e.what();
+    EXPECT_NE(why.find("the places of map town version 3"), std::string::npos) << why;
+    EXPECT_NE(why.find(pl::store::content_hash(body)), std::string::npos) << why;
+    EXPECT_NE(why.find("not " + kHash), std::string::npos) << why;
+  }
+  EXPECT_EQ(server.requests(), 1);
 }
 
 TEST(Wire, AnAnswerLargerThanTheLimitIsRefusedWithoutHoldingIt) {

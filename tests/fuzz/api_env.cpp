@@ -66,6 +66,7 @@ class Env {
         store.put_tile("town", v1.number, TileKey{tx, ty}, bytes, static_cast<std::int64_t>(c.size()), lo.x(), lo.y(), lo.z(), hi.x(),
                        hi.y(), hi.z());
       }
+      store.put_places("town", v1.number, kTownPlaces);
       store.publish("town", v1.number);
       store.create_version("town", std::nullopt, "staged");
       store.add_token(kReadToken, store::Role::Read, "fuzz");

@@ -1,6 +1,6 @@
 // The map service as the API fuzz targets see it: a real SQLite map store (a map "town" with a
-// published version of three tiles and a staged one, a token per role), made once, and for every
-// input a fresh copy of it under a real Api, so that no input sees what an earlier one wrote.
+// published version of three tiles and places, a staged one, a token per role), made once, and for
+// every input a fresh copy of it under a real Api, so that no input sees what an earlier one wrote.
 // Checks every answer: a status the API documents, JSON that parses (UTF-8 included), gzip that
 // inflates; a 500 (an exception nobody expected) is a finding.
 #pragma once
@@ -15,6 +15,8 @@ namespace pl::fuzz {
 constexpr const char* kReadToken = "read-token-0123456789";
 constexpr const char* kUploadToken = "upload-token-0123456789";
 constexpr const char* kAdminToken = "admin-token-0123456789";
+// The places of version 1 (and of staged version 2, its copy).
+constexpr const char* kTownPlaces = "places of town version 1";
 
 // Answers the request from a fresh copy of the store (aborts on an answer that breaks the rules above).
 server::ApiResponse handle_checked(const server::ApiRequest& req);

@@ -1,6 +1,7 @@
 // Fuzz target: what the vehicle's tile client reads from a server (or from anything between the
 // server and the vehicle): the HTTP answer itself under the client's limits, and the manifest, ROI
-// JSON, error bodies and tile bytes in it. The first byte says which; the rest is the answer.
+// JSON, error bodies, tile bytes and places in it. The first byte says which; the rest is the
+// answer (for places: the ETag, a newline, the bytes).
 #include <boost/asio/buffer.hpp>
 #include <cmath>
 #include <cstdint>
@@ -44,6 +45,20 @@ void tile(std::string_view bytes, const std::string& hash) {
   }
 }
 
+void places(std::string_view in) {
+  const auto nl = in.find('\n');
+  const std::string_view etag = nl == std::string_view::npos ? std::string_view() : in.substr(0, nl);
+  const std::string_view bytes = nl == std::string_view::npos ? in : in.substr(nl + 1);
+  try {
+    wire::check_places(bytes, etag);
+    if (bytes.empty()) std::abort();
+    std::string_view named = etag.rfind("W/", 0) == 0 ? etag.substr(2) : etag;
+    if (named.size() == 66 && named.front() == '"' && named.back() == '"' && wire::is_hash(named.substr(1, 64)) &&
+        pl::store::content_hash(bytes) != named.substr(1, 64))
+      std::abort();  // accepted bytes that do not match the hash their ETag names
+  } catch (const wire::WireError&) {
+  }
+}
 
 // An HTTP answer as HttpClient reads it (64 MiB body limit; the fuzzer's inputs are far smaller, so
 // a smaller limit is used to reach the limit's code), then its body as the client would use it.
@@ -80,7 +95,7 @@ void http_answer(std::string_view in) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
   const std::string_view body(reinterpret_cast<const char*>(data) + 1, size - 1);
-  switch (data[0] % 6) {
+  switch (data[0] % 7) {
     case 0: manifest(body, std::nullopt); break;
     case 1: manifest(body, 3); break;
     case 2: roi(body); break;
@@ -91,6 +106,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     case 4: tile(body, pl::store::content_hash(body)); break;  // what the store holds, decoded
     case 5: http_answer(body); break;
+    case 6: places(body); break;
   }
   return 0;
 }

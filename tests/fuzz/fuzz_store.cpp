@@ -3,10 +3,11 @@
 // server reads it, then opened as pl-map opens it (create = true) and written. Refusing with a
 // pl::Error is fine; what must hold (else abort):
 // - every value returned keeps the promises of store.hpp (valid names, states, hashes, finite
-//   bounds with min <= max, a blob's bytes hash to its hash, tiles_in_box answers intersect the box);
+//   bounds with min <= max, a blob's bytes and a version's places hash to their hash, tiles_in_box
+//   answers intersect the box);
 // - refusing to open leaves the file as it was (at most the header fields of the switch to WAL);
 // - reading a current WAL store (what pl-map writes) changes no byte of it;
-// - a tile that put_tile stored is found again, with its bytes.
+// - a tile that put_tile stored is found again, with its bytes, and so are places put_places stored.
 #include <sqlite3.h>
 #include <unistd.h>
 
@@ -145,9 +146,17 @@ void read_version(const Store& s, const std::string& map, const VersionInfo& v) 
     check_blob(s, t.hash);
   }
   check_boxes(s, map, v.number, tiles);
+  attempt([&] {
+    auto hash = s.places_hash(map, v.number);
+    if (hash && !pl::api::is_hash(*hash)) finding("places_hash returned a hash that is not 64 lowercase hex digits");
+    auto bytes = s.places(map, v.number);
+    if (bytes && bytes->empty()) finding("places() returned empty places");
+    if (bytes && hash && pl::store::content_hash(*bytes) != *hash) finding("places() returned bytes that do not hash to places_hash");
+    if (bytes.has_value() != hash.has_value()) suspect("places() and places_hash() disagree on whether a version has places");
+  });
 }
 
-// What pl-server reads: maps, versions, tiles, regions, blobs, tokens, the log, health.
+// What pl-server reads: maps, versions, tiles, regions, blobs, places, tokens, the log, health.
 void serve(const Store& s) {
   std::vector<MapInfo> maps;
   attempt([&] { maps = s.list_maps(); });
@@ -186,7 +195,8 @@ void serve(const Store& s) {
   });
 }
 
-// What pl-map writes: a map, a version, tiles (found again), a publish, a rollback, a token, the log.
+// What pl-map writes: a map, a version, tiles and places (found again), a publish, a child version
+// (with its parent's places), a rollback, a token, the log.
 void build(Store& s) {
   std::vector<std::string> names = {"fuzz-new"};
   attempt([&] {
@@ -207,7 +217,13 @@ void build(Store& s) {
       for (const auto& t : s.tiles_in_box(map, v.number, 65, -75, 66, -74)) in_box |= t.key == put.key;
       if (!in_box) suspect("tiles_in_box does not find the tile put_tile put");
       s.delete_tile(map, v.number, {0, 0});
+      const std::string places = "places of " + map;
+      s.put_places(map, v.number, places);
+      if (s.places(map, v.number) != places) suspect("put_places's bytes are not found again");
       s.publish(map, v.number);
+      const VersionInfo child = s.create_version(map, v.number, "fuzz child");
+      if (s.places(map, child.number) != places) suspect("a new version does not start with its parent's places");
+      s.delete_places(map, child.number);
       s.rollback(map);
     });
   }

@@ -7,3 +7,6 @@ pl_add_fuzzer(kitti_bin SOURCES fuzz_kitti_bin.cpp LIBS pl_common)
 pl_add_fuzzer(dataset SOURCES fuzz_dataset.cpp LIBS pl_common)
 
 target_sources(make_fuzz_seeds PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/seeds_readers.cpp)
+# The places of a map version (registration/src/place_index.cpp).
+pl_add_fuzzer(places SOURCES fuzz_places.cpp LIBS pl_registration)
+target_link_libraries(make_fuzz_seeds PRIVATE pl_registration)

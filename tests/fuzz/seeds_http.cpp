@@ -17,6 +17,7 @@ struct Req {
 std::vector<Req> requests() {
   const std::string h00 = pl::store::content_hash(pl::fuzz::town_tile(0, 0));
   const std::string h10 = pl::store::content_hash(pl::fuzz::town_tile(1, 0));
+  const std::string hp = pl::store::content_hash(pl::fuzz::kTownPlaces);
   return {
       {"list-maps", "GET", "/v1/maps", "", "", "", ""},
       {"manifest-gzip", "GET", "/v1/maps/town", "", "", "gzip, deflate", ""},
@@ -26,6 +27,11 @@ std::vector<Req> requests() {
       {"tile-etag", "GET", "/v1/maps/town/versions/1/tiles/0/0", "", "\"" + h00 + "\"", "", ""},
       {"tile-head", "HEAD", "/v1/maps/town/versions/1/tiles/-1/2", "", "", "", ""},
       {"blob", "GET", "/v1/blobs/" + h10, "", "", "", ""},
+      {"places", "GET", "/v1/maps/town/versions/1/places", "", "", "", ""},
+      {"places-etag", "GET", "/v1/maps/town/versions/1/places", "", "\"" + hp + "\"", "", ""},
+      {"places-staged-head", "HEAD", "/v1/maps/town/versions/2/places", "@upload", "", "", ""},
+      {"put-places", "PUT", "/v1/maps/town/versions/2/places", "@upload", "", "", "new places of version 2"},
+      {"delete-places", "DELETE", "/v1/maps/town/versions/2/places", "@upload", "", "", ""},
       {"create-map", "POST", "/v1/maps", "@admin", "", "",
        R"({"name": "harbour", "origin": {"lat": 53.54, "lon": 9.98, "alt": 4.5}, "tile_size": 25, "voxel_size": 0.25})"},
       {"create-version", "POST", "/v1/maps/town/versions", "@upload", "", "", R"({"note": "second drive"})"},
@@ -87,6 +93,11 @@ void client_answer_seeds(const pl::fuzz::PutSeed& put) {
   put("roi", std::string(1, '\2') + roi.body);
   put("error-404", std::string(1, '\3') + missing.body);
   put("tile", std::string(1, '\4') + pl::fuzz::town_tile(1, 0));
+  const auto places = answer("GET", "/v1/maps/town/versions/1/places");
+  std::string etag;
+  for (const auto& [k, v] : places.headers)
+    if (k == "ETag") etag = v;
+  put("places", std::string(1, '\6') + etag + "\n" + *places.blob);
   auto http = [](int status, const std::string& reason, const std::string& body, bool chunked) {
     std::string s = "HTTP/1.1 " + std::to_string(status) + " " + reason + "\r\nServer: pl-server\r\nContent-Type: application/json\r\n";
     if (!chunked) return s + "Content-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body;

@@ -17,6 +17,7 @@
 #include "pl/common/error.hpp"
 #include "pl/common/meta.hpp"
 #include "pl/common/scan.hpp"
+#include "pl/registration/place_index.hpp"
 #include "seeds.hpp"
 
 namespace fs = std::filesystem;
@@ -143,6 +144,28 @@ void kitti_bin_seeds(const pl::fuzz::PutSeed& put) {
   put("four-rings", bin(small_scan(8, 4, 30.0f)));
 }
 
+// Places as pl-map build encodes them: none, and a few of a small grid with occupied and empty cells.
+void places_seeds(const pl::fuzz::PutSeed& put) {
+  pl::registration::PlaceDescriptorConfig cfg;
+  cfg.rings = 3;
+  cfg.sectors = 8;
+  put("none", pl::registration::PlaceIndex(cfg, {}).encode());
+  std::vector<pl::registration::Place> places;
+  for (int k = 0; k < 3; ++k) {
+    std::vector<Eigen::Vector3f> points;
+    for (int i = 0; i < 12; ++i)
+      points.emplace_back(static_cast<float>(5 + 20 * (i % 3)) * std::cos(0.7f * static_cast<float>(i + k)),
+                          static_cast<float>(5 + 20 * (i % 3)) * std::sin(0.7f * static_cast<float>(i + k)),
+                          static_cast<float>(i % 4) - 1.5f);
+    pl::registration::Place p;
+    p.position = Eigen::Vector3d(2.0 * k, -1.0, 0.5);
+    p.yaw = 0.3 * k;
+    p.descriptor = pl::registration::make_place_descriptor(points, cfg);
+    places.push_back(p);
+  }
+  put("three", pl::registration::PlaceIndex(cfg, places).encode());
+}
+
 // ---- dataset: one input holds a whole folder, "@@ PATH" before each file ----
 
 using Files = std::map<std::string, std::string>;
@@ -247,6 +270,7 @@ void dataset_seeds(const pl::fuzz::PutSeed& put) {
 
 const bool registered = pl::fuzz::register_seeds("pcd", pcd_seeds) && pl::fuzz::register_seeds("ply", ply_seeds) &&
                         pl::fuzz::register_seeds("kitti_bin", kitti_bin_seeds) &&
+                        pl::fuzz::register_seeds("places", places_seeds) &&
                         pl::fuzz::register_seeds("dataset", dataset_seeds);
 
 }  // namespace

@@ -111,6 +111,18 @@ void fill_store(const std::string& path) {
   s.log_upload("town", 2, "put_tile", "0/0", "seed");
 }
 
+// fill_store's store and two more versions with places (schema version 2): version 3 published
+// with places, version 4 staged from it, its copy of them replaced.
+void fill_store_with_places(const std::string& path) {
+  fill_store(path);
+  Store s = Store::open(path, false);
+  s.create_version("town", std::nullopt, "third drive");
+  s.put_places("town", 3, std::string("places of version 3\0with a NUL", 30));
+  s.publish("town", 3);
+  s.create_version("town", std::nullopt, "fourth drive");
+  s.put_places("town", 4, "places of version 4");
+}
+
 // The seed opens and reads as a store (a check of this maker, on a copy: opening may switch it to WAL).
 void check_store(const std::string& bytes, const std::string& path, std::size_t maps) {
   Store s = Store::open(copy_to(bytes, path), false);
@@ -119,6 +131,13 @@ void check_store(const std::string& bytes, const std::string& path, std::size_t 
     for (const auto& v : s.list_versions(m.name))
       for (const auto& t : s.list_tiles(m.name, v.number))
         if (!s.blob(t.hash)) throw pl::Error(path + ": the seed store lost a blob");
+}
+
+std::size_t versions_with_places(const std::string& bytes, const std::string& path) {
+  Store s = Store::open(copy_to(bytes, path), false);
+  std::size_t n = 0;
+  for (const auto& v : s.list_versions("town")) n += s.places("town", v.number).has_value();
+  return n;
 }
 
 void store_seeds(const pl::fuzz::PutSeed& put_seed) {
@@ -132,6 +151,15 @@ void store_seeds(const pl::fuzz::PutSeed& put_seed) {
   const std::string rollback = compact(full, "DELETE");
   check_store(rollback, dir / "check-delete.sqlite", 1);
   put_seed("two-versions-rollback-journal", rollback);
+
+  const std::string with_places = dir / "places.sqlite";
+  empty_small_pages(with_places);
+  fill_store_with_places(with_places);
+  const std::string places_wal = compact(with_places, "WAL");
+  check_store(places_wal, dir / "check-places.sqlite", 1);
+  if (versions_with_places(places_wal, dir / "check-places-2.sqlite") != 2)
+    throw pl::Error(with_places + ": the seed store lost its places");
+  put_seed("four-versions-places-wal", places_wal);
 
   const std::string empty = dir / "empty.sqlite";
   empty_small_pages(empty);

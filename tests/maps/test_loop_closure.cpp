@@ -15,7 +15,7 @@
 #include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/maps/loop_closure.hpp"
-#include "pl/maps/place_descriptor.hpp"
+#include "pl/registration/place_descriptor.hpp"
 #include "pl/maps/pose_graph.hpp"
 #include "test_util.hpp"
 
@@ -100,18 +100,18 @@ TEST(PlaceDescriptor, SamePlaceTurnedMatchesWithItsHeadingAnotherPlaceDoesNot) {
   const auto w = world(3);
   const pl::Pose a_pose = pl::make_pose(2.0, 1.0, 0, 0, 0, 0.0);
   const pl::Pose b_pose = pl::make_pose(2.3, 0.8, 0, 0, 0, 50.0 * kDeg);
-  const auto a = pl::maps::make_place_descriptor(seen_from(w, a_pose));
-  const auto b = pl::maps::make_place_descriptor(seen_from(w, b_pose));
-  const auto other = pl::maps::make_place_descriptor(seen_from(world(4), a_pose));
-  const pl::maps::DescriptorMatch same = pl::maps::compare_descriptors(b, a);
+  const auto a = pl::registration::make_place_descriptor(seen_from(w, a_pose));
+  const auto b = pl::registration::make_place_descriptor(seen_from(w, b_pose));
+  const auto other = pl::registration::make_place_descriptor(seen_from(world(4), a_pose));
+  const pl::registration::DescriptorMatch same = pl::registration::compare_descriptors(b, a);
   EXPECT_LT(same.distance, 0.2);
   // b's heading relative to a's: +50 deg, to within a sector (6 deg).
   EXPECT_NEAR(same.yaw_rad, 50.0 * kDeg, 6.5 * kDeg);
-  EXPECT_NEAR(pl::maps::compare_descriptors(a, b).yaw_rad, -50.0 * kDeg, 6.5 * kDeg);
-  EXPECT_GT(pl::maps::compare_descriptors(other, a).distance, 2.0 * same.distance + 0.1);
+  EXPECT_NEAR(pl::registration::compare_descriptors(a, b).yaw_rad, -50.0 * kDeg, 6.5 * kDeg);
+  EXPECT_GT(pl::registration::compare_descriptors(other, a).distance, 2.0 * same.distance + 0.1);
   // The ring key ignores the heading; another place's differs more.
-  EXPECT_LT(pl::maps::ring_key_distance(a, b), pl::maps::ring_key_distance(a, other));
-  EXPECT_THROW(pl::maps::compare_descriptors(a, pl::maps::make_place_descriptor({}, {10, 30, 80.0, 2.0})), pl::Error);
+  EXPECT_LT(pl::registration::ring_key_distance(a, b), pl::registration::ring_key_distance(a, other));
+  EXPECT_THROW(pl::registration::compare_descriptors(a, pl::registration::make_place_descriptor({}, {10, 30, 80.0, 2.0})), pl::Error);
 }
 
 TEST(PoseGraph, ALoopEdgeTakesOutTheDriftAroundTheLoop) {

@@ -13,9 +13,11 @@
 #include <utility>
 
 #include "pl/common/error.hpp"
+#include "pl/schema/api_rules.hpp"
 #include "pl/schema/store.hpp"
 #include "store_test_util.hpp"
 #include "error_of.hpp"
+#include "raw_sql.hpp"
 #include "test_util.hpp"
 
 namespace {
@@ -84,7 +86,7 @@ TEST_F(StoreTest, MigratesAFreshFileAndReopens) {
     RawDb raw(path);
     EXPECT_EQ(raw.scalar("PRAGMA user_version"), Store::latest_schema_version());
     EXPECT_EQ(raw.text("PRAGMA journal_mode"), "wal");
-    for (const char* t : {"maps", "versions", "blobs", "tiles", "tile_rtree", "tokens", "upload_log"})
+    for (const char* t : {"maps", "versions", "blobs", "tiles", "tile_rtree", "tokens", "upload_log", "places"})
       EXPECT_EQ(raw.scalar(std::string("SELECT count(*) FROM sqlite_schema WHERE name = '") + t + "'"), 1) << t;
   }
   Store s = Store::open(path, /*create=*/false);
@@ -110,6 +112,54 @@ TEST_F(StoreTest, RefusesANewerSchema) {
   EXPECT_TRUE(contains(msg, "upgrade")) << msg;
   RawDb raw(path);
   EXPECT_EQ(raw.scalar("PRAGMA user_version"), Store::latest_schema_version() + 1);  // left alone
+}
+
+TEST_F(StoreTest, MigratesASchema1StoreOnOpen) {
+  // A store as a build of schema version 1 left it: migration 001 alone, then a map with one
+  // published version and one tile, written by SQLite directly.
+  const std::string schema_1 = pl::test::read_file(std::string(PL_SOURCE_DIR) + "/schema/001_initial.sql");
+  ASSERT_NE(schema_1.find("CREATE TABLE tiles"), std::string::npos);
+  const std::string hash = pl::store::content_hash("abc");
+  pl::test::raw_sql(path, "BEGIN; " + schema_1 + "\nPRAGMA user_version = 1; COMMIT; PRAGMA journal_mode = WAL;");
+  pl::test::raw_sql(path,
+                    "INSERT INTO maps (name, origin_lat, origin_lon, origin_alt, tile_size, voxel_size) "
+                    "VALUES ('old', 48.1, 11.5, 519, 10, 0.2); "
+                    "INSERT INTO versions (map_id, number, note) VALUES (1, 1, 'made at schema 1'); "
+                    "INSERT INTO blobs (hash, bytes, size) VALUES ('" + hash + "', CAST('abc' AS BLOB), 3); "
+                    "INSERT INTO tiles (map_id, version, tx, ty, hash, points, bytes, min_x, min_y, min_z, max_x, max_y, max_z) "
+                    "VALUES (1, 1, 0, 0, '" + hash + "', 5, 3, 1, 1, 0, 9, 9, 1); "
+                    "UPDATE versions SET state = 'published' WHERE number = 1; "
+                    "UPDATE maps SET current_version = 1;");
+  {
+    RawDb raw(path);
+    ASSERT_EQ(raw.scalar("PRAGMA user_version"), 1);
+    ASSERT_EQ(raw.scalar("SELECT count(*) FROM sqlite_schema WHERE name = 'places'"), 0);
+  }
+  EXPECT_EQ(Store::latest_schema_version(), 2);
+  {
+    Store s = Store::open(path, /*create=*/false);
+    EXPECT_EQ(s.schema_version(), 2);
+    auto m = s.find_map("old");
+    ASSERT_TRUE(m);
+    EXPECT_EQ(m->current, 1);
+    EXPECT_EQ(s.find_version("old", 1)->note, "made at schema 1");
+    ASSERT_TRUE(s.find_tile("old", 1, {0, 0}));
+    EXPECT_EQ(s.blob(hash), "abc");
+    EXPECT_FALSE(s.places("old", 1));
+    EXPECT_TRUE(s.integrity_ok());
+    // The migrated store takes places like a new one.
+    auto v2 = s.create_version("old", std::nullopt, "");
+    EXPECT_EQ(v2.tiles, 1);
+    s.put_places("old", 2, "descriptors");
+    EXPECT_EQ(s.places("old", 2), "descriptors");
+  }
+  RawDb raw(path);
+  EXPECT_EQ(raw.scalar("PRAGMA user_version"), 2);
+  EXPECT_EQ(raw.scalar("SELECT count(*) FROM places"), 1);
+  // Reopening checks the schema against the migrations' own, and finds nothing left to migrate.
+  Store again = Store::open(path, false);
+  EXPECT_EQ(again.schema_version(), 2);
+  EXPECT_EQ(again.places("old", 2), "descriptors");
 }
 
 TEST_F(StoreTest, RefusesAFileThatIsNotSqlite) {
@@ -354,10 +404,20 @@ TEST_F(StoreTest, UnknownMapsAndVersions) {
     EXPECT_TRUE(contains(msg, "unknown map ghost")) << msg;
     EXPECT_TRUE(contains(msg, path)) << msg;
   }
+  EXPECT_FALSE(s.places("ghost", 1));
+  EXPECT_FALSE(s.places_hash("ghost", 1));
+  for (auto& msg : {error_of([&] { s.put_places("ghost", 1, "p"); }), error_of([&] { s.delete_places("ghost", 1); })}) {
+    EXPECT_TRUE(contains(msg, "unknown map ghost")) << msg;
+    EXPECT_TRUE(contains(msg, path)) << msg;
+  }
   s.create_map("m", kOrigin, 10, 0.2);
   EXPECT_FALSE(s.find_version("m", 1));
   EXPECT_TRUE(contains(error_of([&] { s.publish("m", 1); }), "no version 1"));
   EXPECT_TRUE(contains(error_of([&] { put_cell(s, "m", 1, 0, 0, 1); }), "no version 1"));
+  EXPECT_FALSE(s.places("m", 1));
+  EXPECT_FALSE(s.places_hash("m", 1));
+  EXPECT_TRUE(contains(error_of([&] { s.put_places("m", 1, "p"); }), "map m has no version 1"));
+  EXPECT_TRUE(contains(error_of([&] { s.delete_places("m", 1); }), "map m has no version 1"));
 }
 
 // ---- tiles and blobs -----------------------------------------------------------------------------
@@ -609,6 +669,92 @@ TEST_F(StoreTest, SchemaRefusesTileWritesToPublishedVersions) {
   EXPECT_EQ(raw.scalar("SELECT count(*) FROM tiles"), 1);
 }
 
+// ---- places --------------------------------------------------------------------------------------
+
+TEST_F(StoreTest, PlacesArePutReadReplacedAndDeleted) {
+  Store s = Store::open(path);
+  s.create_map("m", kOrigin, 10, 0.2);
+  s.create_version("m", std::nullopt, "");
+  EXPECT_FALSE(s.places("m", 1));
+  EXPECT_FALSE(s.places_hash("m", 1));
+  const std::string a = fake_draco(7, 5000) + std::string("\0end", 4), b = fake_draco(8, 300);
+  s.put_places("m", 1, a);
+  EXPECT_EQ(s.places("m", 1), a);  // byte for byte, NULs included
+  EXPECT_EQ(s.places_hash("m", 1), pl::store::content_hash(a));
+  RawDb raw(path);
+  const std::int64_t id = raw.scalar("SELECT id FROM places");
+  EXPECT_EQ(raw.scalar("SELECT size FROM places"), 5004);
+  s.put_places("m", 1, a);  // the same bytes again: nothing changes
+  s.put_places("m", 1, b);  // other bytes replace them, in the same row
+  EXPECT_EQ(s.places("m", 1), b);
+  EXPECT_EQ(s.places_hash("m", 1), pl::store::content_hash(b));
+  EXPECT_EQ(raw.scalar("SELECT id FROM places"), id);
+  EXPECT_EQ(count_rows(path, "places"), 1);
+  EXPECT_EQ(count_rows(path, "blobs"), 0);  // places are not tile blobs
+  EXPECT_TRUE(s.integrity_ok());
+
+  std::string msg = error_of([&] { s.put_places("m", 1, ""); });
+  EXPECT_TRUE(contains(msg, path + ": map m version 1 places: empty")) << msg;
+  msg = error_of([&] { s.put_places("m", 1, std::string(pl::api::kMaxPlacesBytes + 1, 'x')); });
+  EXPECT_TRUE(contains(msg, "more than the store's limit of 64 MiB")) << msg;
+  EXPECT_EQ(s.places("m", 1), b);  // refused writes leave them
+
+  EXPECT_TRUE(s.delete_places("m", 1));
+  EXPECT_FALSE(s.delete_places("m", 1));  // already gone
+  EXPECT_FALSE(s.places("m", 1));
+  EXPECT_FALSE(s.places_hash("m", 1));
+  EXPECT_EQ(count_rows(path, "places"), 0);
+  EXPECT_TRUE(s.integrity_ok());
+}
+
+TEST_F(StoreTest, PlacesAreWrittenOnlyWhileStagedAndCopiedToAChildVersion) {
+  Store s = Store::open(path);
+  s.create_map("m", kOrigin, 10, 0.2);
+  s.create_version("m", std::nullopt, "");
+  const std::string first = fake_draco(1, 2000), second = fake_draco(2, 1000);
+  put_cell(s, "m", 1, 0, 0, 1);
+  s.put_places("m", 1, first);
+  s.publish("m", 1);
+  std::string msg = error_of([&] { s.put_places("m", 1, second); });
+  EXPECT_TRUE(contains(msg, path + ": map m version 1 is published: places can only be changed in a staged version"))
+      << msg;
+  EXPECT_TRUE(contains(error_of([&] { s.delete_places("m", 1); }), "version 1 is published")) << msg;
+
+  // A new version starts with a copy of its parent's places; changing the copy leaves the parent's.
+  auto v2 = s.create_version("m", std::nullopt, "");
+  EXPECT_EQ(v2.parent, 1);
+  EXPECT_EQ(s.places("m", 2), first);
+  s.put_places("m", 2, second);
+  EXPECT_EQ(s.places("m", 1), first);
+  EXPECT_EQ(s.places("m", 2), second);
+  EXPECT_TRUE(s.delete_places("m", 2));
+  EXPECT_EQ(s.places("m", 1), first);
+  auto v3 = s.create_version("m", 2, "from 2, which has none");
+  EXPECT_FALSE(s.places("m", v3.number));
+  s.put_places("m", 2, second);
+  s.publish("m", 2);
+  msg = error_of([&] { s.put_places("m", 1, second); });
+  EXPECT_TRUE(contains(msg, "version 1 is retired")) << msg;
+  EXPECT_EQ(s.places("m", 1), first);
+  EXPECT_EQ(s.places("m", 2), second);
+  EXPECT_TRUE(s.integrity_ok());
+
+  // The schema refuses other writers too.
+  RawDb raw(path);
+  ASSERT_EQ(raw.exec("PRAGMA foreign_keys = ON"), "");
+  EXPECT_TRUE(contains(raw.exec("UPDATE places SET size = size WHERE version = 1"), "staged"));
+  EXPECT_TRUE(contains(raw.exec("DELETE FROM places WHERE version = 2"), "staged"));
+  EXPECT_TRUE(contains(raw.exec("INSERT INTO places (map_id, version, hash, bytes, size) SELECT map_id, 1, hash, bytes, "
+                                "size FROM places WHERE version = 2"),
+                       "staged"));
+  // Version 3 is staged: the CHECK constraints still hold.
+  const std::string nul_hash = pl::store::content_hash(std::string(1, '\0'));
+  EXPECT_NE(raw.exec("INSERT INTO places (map_id, version, hash, bytes, size) VALUES (1, 3, 'x', x'00', 1)"), "");
+  EXPECT_NE(raw.exec("INSERT INTO places (map_id, version, hash, bytes, size) VALUES (1, 3, '" + nul_hash + "', x'00', 2)"), "");
+  EXPECT_NE(raw.exec("INSERT INTO places (map_id, version, hash, bytes, size) VALUES (1, 3, '" + nul_hash + "', x'', 0)"), "");
+  EXPECT_EQ(raw.scalar("SELECT count(*) FROM places"), 2);
+}
+
 // ---- transactions and maintenance ----------------------------------------------------------------
 
 TEST_F(StoreTest, TransactionCommitsAndRollsBackOnDestruction) {
@@ -711,7 +857,8 @@ TEST_F(StoreTest, IntegrityAndSize) {
 const char* kDamaged = "the map store is damaged";
 const char* kFix = "restore it from a backup, or rebuild it with pl-map";
 
-// One map: version 1 published with 30 tiles, version 2 staged from it; a token; a log entry.
+// One map: version 1 published with 30 tiles and places, version 2 staged from it; a token; a log
+// entry.
 void make_sample_store(const std::string& path) {
   Store s = Store::open(path);
   s.create_map("town", kOrigin, 10, 0.2);
@@ -719,6 +866,7 @@ void make_sample_store(const std::string& path) {
   {
     Store::Transaction tx(s);
     for (int i = 0; i < 30; ++i) put_cell(s, "town", 1, i % 6, i / 6, static_cast<std::uint32_t>(i), 2000);
+    s.put_places("town", 1, fake_draco(99, 3000));
     tx.commit();
   }
   s.publish("town", 1);
@@ -734,6 +882,8 @@ void read_like_the_server(const std::string& path) {
     for (const auto& v : s.list_versions(m.name)) {
       for (const auto& t : s.list_tiles(m.name, v.number)) s.blob(t.hash);
       s.tiles_in_box(m.name, v.number, -1e9, -1e9, 1e9, 1e9);
+      s.places_hash(m.name, v.number);
+      s.places(m.name, v.number);
     }
   s.check_token("secret-read");
   s.upload_log("town");
@@ -911,6 +1061,16 @@ TEST_F(StoreTest, ValuesThatBreakTheSchemasPromisesAreRefused) {
        [](Store& s) { s.blob(s.list_tiles("town", 1).front().hash); }, "do not match its content hash"},
       {"UPDATE blobs SET bytes = 'text'", [](Store& s) { s.blob(s.list_tiles("town", 1).front().hash); },
        "blobs.bytes is not a blob"},
+      {"UPDATE places SET bytes = zeroblob(size) WHERE version = 1", [](Store& s) { s.places("town", 1); },
+       "places.bytes of map town version 1 do not match their content hash"},
+      {"UPDATE places SET bytes = 'text' WHERE version = 2", [](Store& s) { s.places("town", 2); },
+       "places.bytes is not a blob"},
+      {"UPDATE places SET size = size + 1", [](Store& s) { s.places("town", 1); }, "places.size is not the length"},
+      {"UPDATE places SET size = 0", [](Store& s) { s.places_hash("town", 1); }, "places.size is out of range"},
+      {"UPDATE places SET hash = upper(hash)", [](Store& s) { s.places_hash("town", 2); },
+       "places.hash is not a SHA-256 hash"},
+      {"UPDATE places SET version = 7 WHERE version = 2", [](Store& s) { s.places("town", 7); },
+       "map town version 7 has places but no such version"},
       {"UPDATE tokens SET role = 'root'", [](Store& s) { s.check_token("secret-read"); }, "tokens.role is not one of"},
       {"UPDATE upload_log SET at = 'then'", [](Store& s) { s.upload_log("town"); }, "upload_log.at is not a UTC timestamp"},
       {"UPDATE upload_log SET detail = x'00ff'", [](Store& s) { s.upload_log("town"); }, "upload_log.detail is not text"},
@@ -925,6 +1085,10 @@ TEST_F(StoreTest, ValuesThatBreakTheSchemasPromisesAreRefused) {
     expect_damaged(error_of([&] { c.read(s); }), path, c.detail);
     EXPECT_EQ(file_bytes(path), crafted) << c.sql;
   }
+  // Places of a version that does not exist break a foreign key: a full check finds it too.
+  pl::test::write_file(path, sound);
+  tamper(path, "UPDATE places SET version = 7 WHERE version = 2");
+  EXPECT_FALSE(Store::open(path, false).integrity_ok());
 }
 
 TEST_F(StoreTest, NullInANotNullColumnIsRefused) {

@@ -213,6 +213,9 @@ TEST(ServerHardening, HttpAsProxiesAndClientsExpectIt) {
   r = ask("OPTIONS /v1/maps/town/versions/1/tiles/0/0 HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
   EXPECT_EQ(status_of(r), 204);
   EXPECT_EQ(header_of(r, "Allow"), "GET, HEAD, PUT, DELETE, OPTIONS");
+  r = ask("OPTIONS /v1/maps/town/versions/1/places HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(status_of(r), 204);
+  EXPECT_EQ(header_of(r, "Allow"), "GET, HEAD, PUT, DELETE, OPTIONS");
   // 401 carries WWW-Authenticate: Bearer (and says when a token was refused).
   r = ask("POST /v1/maps/town/versions HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\nConnection: close\r\n\r\n");
   EXPECT_EQ(status_of(r), 401);
@@ -290,7 +293,8 @@ TEST(ServerHardening, TenThousandRandomAndMalformedRequests) {
       "/v1/maps/town/roi?x=1e308&y=-1e308&radius=5000", "/v1/maps/town/roi?x=nan&y=0&radius=1", "/v1/maps/town/roi?have=" + hash,
       "/v1/maps/town/versions/1/tiles", "/v1/maps/town/versions/1/tiles/0/0", "/v1/maps/town/versions/99999999999999999999/tiles/0/0",
       "/v1/maps/town/versions/1/tiles/2147483648/-2147483649", "/v1/blobs/" + hash, "/v1/blobs/" + std::string(64, 'g'),
-      "/v1/maps/%", "/v1/maps/%G0", "/v1/maps/town/versions/1/publish", "/../../etc/passwd", "*", "http://evil/v1/maps",
+      "/v1/maps/%", "/v1/maps/%G0", "/v1/maps/town/versions/1/publish", "/v1/maps/town/versions/1/places",
+      "/../../etc/passwd", "*", "http://evil/v1/maps",
       "/v1/maps/" + std::string(3000, 'a'), "/v1//maps///town", "/v1/maps/town/roi?x=1&x=2&&&=&y", "/\xff\xfe\xfd"};
   const std::vector<std::string> headers = {
       "Authorization: Bearer " + pl::test::kUploadToken, "Authorization: Bearer \xff", "Authorization: Basic Zm9vOmJhcg==",

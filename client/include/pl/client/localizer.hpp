@@ -23,6 +23,7 @@
 #include "pl/client/roi_map.hpp"
 #include "pl/common/scan.hpp"
 #include "pl/registration/icp.hpp"
+#include "pl/registration/place_index.hpp"
 #include "pl/registration/pose_search.hpp"
 
 namespace pl::client {
@@ -71,20 +72,38 @@ struct IntegrityConfig {
   double share_drop = 0.06;   // relative to the recent verified scans: the share fell by more than this,
   double rms_rise = 1.3;      //   or the residual rose this many times
   int reference_scans = 20;   // the recent verified scans the relative checks compare with
-  // Re-registrations from perturbed seeds: a distinctly different pose (farther than distinct_m)
+  // Re-registrations from perturbed seeds: a distinctly different pose (farther than distinct_m or
+  // turned more than distinct_deg)
   // scoring at least ambiguity_ratio of the solution's makes the scan ambiguous (degraded); scoring
   // better by that ratio, it replaces the solution (a wrong minimum escaped).
   int seeds = 6;  // +-1 and +-1.7 seed_offset_m along the direction held least, +-seed_yaw_deg
   double seed_offset_m = 1.0;
   double seed_yaw_deg = 5.0;
   double distinct_m = 0.5;
+  double distinct_deg = 3.0;  // ... or turned more than this
   double ambiguity_ratio = 0.85;
+  // Probes of the minimum's flatness: the fine registration started probe_m either way along the
+  // direction held least (probe_points of the scan, probe_iterations); how far from the solution
+  // they end is added to the protection level (a flat basin holds the position less than the
+  // covariance says).
+  double probe_m = 0.4;
+  int probe_points = 800;
+  int probe_iterations = 10;
   // The protection level: map_error_m + sigmas x the registration's position sigma (inflated for
   // the correlation of neighbouring residuals, as if only `independent_pairs` were independent),
   // plus the spread of near-equal alternatives; unfused, the prediction's 3 sigma is added.
-  double map_error_m = 0.12;
+  double map_error_m = 0.2;  // drive 0005: fits 0.24 m off its OXTS truth on a verified stretch (docs/pl-localize.md)
   double sigmas = 3.0;
   double independent_pairs = 50.0;
+};
+
+// Place recognition in a search for a lost or unknown pose: the map's places (pl-map build) whose
+// descriptors look most like the scan's are searched round, every heading, not only round the
+// prediction.
+struct PlaceConfig {
+  int proposals = 8;         // places searched round per scan
+  double search_m = 4.0;     // this far round each (the places' spacing and the lane's offset)
+  double search_deg = 12.0;  // and this far round the heading the descriptor gives (its sector is 6 deg)
 };
 
 struct LocalizerConfig {
@@ -117,6 +136,14 @@ struct LocalizerConfig {
   FusionConfig fusion;
   MotionConfig motion;
   IntegrityConfig integrity;
+  PlaceConfig places;
+  // Motion compensation: each scan's points moved to where the sensor was at the scan's time, by the
+  // predicted motion over a sweep of sweep_s (constant velocity), each point's time from its
+  // azimuth (a clockwise spin timed facing ahead, as a Velodyne in KITTI). Off for scans taken at one
+  // pose; skipped where the caller compensated already (Prediction::compensated) or the velocity is
+  // not known yet.
+  bool compensate_motion = false;  // off by default: on KITTI raw it did not help (docs/pl-localize.md)
+  double sweep_s = 0.1;
   bool lidar_odometry = true;  // measure the motion with LiDAR odometry where no external odometry covers it
   LidarOdometryConfig odometry;
   int lost_after = 10;           // consecutive unfused scans before "lost"
@@ -135,6 +162,7 @@ const char* basin_name(Basin b);
 struct Prediction {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   bool odometry = false;  // external odometry covers the interval since the last scan
+  bool compensated = false;  // the caller moved the points for the motion during the sweep (per-point times)
 };
 
 struct ScanReport {
@@ -144,8 +172,10 @@ struct ScanReport {
   registration::IcpResult icp;
   Uncertainty uncertainty;             // the prediction's (1 sigma)
   Basin basin = Basin::Fine;
+  int place_proposals = 0;             // places searched round (a search with the map's places)
   const char* motion = "momentum";     // odometry, lidar odometry, momentum, start
   bool odometry_ok = false;            // LiDAR odometry gave the increment
+  bool compensated = false;            // the scan was corrected for the motion during its sweep
   bool fused_lidar = false;            // the registration was accepted and fused
   bool gated = false;                  // rejected by the gate on the prediction's uncertainty (a jump)
   bool plausible = false;              // the absolute checks passed (share on a map surface, residual)
@@ -156,6 +186,7 @@ struct ScanReport {
   bool resolved = false;               // a perturbed seed found a better minimum, which was taken
   double alternative_m = 0;            // distance to the best distinct alternative (0: none)
   double registration_sigma_m = 0;     // the registration's horizontal position sigma, inflated
+  double basin_spread_m = 0;           // how far probes either side of the solution ended from it
   double protection_m = 0;             // bound on the horizontal position error
   Health health = Health::Ok;
   std::string note;                    // why degraded or lost
@@ -195,21 +226,34 @@ class Localizer {
   const LocalizerConfig& config() const { return cfg_; }
   // Brings the ROI maps to the tiles around `center` (done by process(); public for start-up).
   void update_map(const Eigen::Vector2d& center);
-  // Start-up from a rough pose: a search over the tiles around it with the first scan, then start.
-  // Returns false (and starts at the guess) when the search finds nothing.
-  bool start_near(const Eigen::Isometry3d& guess, double t, const OdometryBuffer* odometry, const Scan& scan,
-                  const std::vector<std::uint16_t>& rings, const registration::PoseSearch& search = {});
+  // The map's places: a search for a lost or unknown pose asks them where to look. `far_tiles`
+  // (default: the tile provider) gives the tiles round a place far from the prediction, waiting for
+  // them if it must.
+  void set_places(std::shared_ptr<const registration::PlaceIndex> places, TileProvider far_tiles = {});
+  bool has_places() const { return places_ && !places_->empty(); }
+  // Starts from a rough pose: the scans search within radius_m and yaw_deg of it (with the places
+  // there, when there are) and are not ok until a verified pose is found.
+  void start_search(const Eigen::Isometry3d& guess, double t, const OdometryBuffer* odometry, double radius_m, double yaw_deg);
+  // Starts with no pose at all: the scans search the whole map by its places until a verified pose
+  // is found (reported lost until then). Throws pl::Error when there are no places.
+  void start_global(double t, const OdometryBuffer* odometry);
+  // Searching for a pose: after start_search or start_global, or when lost, until a verified one.
+  bool searching() const { return relocalizing_; }
 
  private:
   LocalizerConfig cfg_;
   double tile_size_;
   TileProvider tiles_;
   std::unique_ptr<RoiMap> map_, coarse_;
+  Eigen::Vector2d map_center_ = Eigen::Vector2d::Zero();
+  std::shared_ptr<const registration::PlaceIndex> places_;
+  TileProvider far_tiles_;
+  bool global_ = false;  // no pose yet: searching the whole map
   Fusion fusion_;
   LidarOdometry odometry_;
   // The state between scans (written by fuse on the worker; register_at reads it on the same thread).
   Uncertainty posterior_;      // after the last scan
-  bool velocity_known_ = false, previous_fused_ = false, relocalizing_ = false;
+  bool velocity_known_ = false, previous_fused_ = false, previous_verified_ = false, relocalizing_ = false;
   // The last scan whose position was measured, from which momentum's uncertainty grows.
   double anchor_t_ = 0, anchor_speed_ = 0, anchor_speed_sigma_ = 0, anchor_yaw_rate_sigma_ = 0;
   Uncertainty anchor_;
@@ -224,6 +268,10 @@ class Localizer {
   void set_anchor(double t, const Uncertainty& u, bool velocity_known, double speed);
   // From the next scan on, search the relocalization reach round the last pose (at least u).
   void relocalize(double t, const Uncertainty& u);
+  // The candidates of a search of the uncertainty region round `guess` (and of the places the scan
+  // looks like), best first; leaves the maps round the best.
+  std::vector<registration::Candidate> search(const std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& guess,
+                                              const Uncertainty& u, ScanReport& r);
   void check_integrity(const std::vector<Eigen::Vector3f>& points, ScanReport& r,
                        std::vector<registration::Candidate> alternatives) const;
 };

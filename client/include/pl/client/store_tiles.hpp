@@ -6,6 +6,7 @@
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,9 @@ class StoreTiles {
   long long version() const { return version_; }
   // Every tile of the version within `radius` of `center`, decoded.
   std::vector<MapTile> near(const Eigen::Vector2d& center, double radius);
+  // The version's places (opaque bytes, checked against their hash as the store reads them);
+  // nothing when it has none. Read from the store at each call.
+  std::optional<std::string> places() const;
 
  private:
   struct Impl;

@@ -16,6 +16,8 @@
 //   recently used tiles outside the focus discs first, then focus tiles farther than the one it loads.
 // - While the server is down, slow or answering errors the thread retries with exponential backoff
 //   (with jitter), keeps serving what memory and disk hold, and says what is wrong in status().
+// - The pinned version's places (its place-recognition descriptors) are fetched on request
+//   (places()), once, and kept in memory.
 #pragma once
 
 #include <Eigen/Core>
@@ -93,6 +95,17 @@ class TileClient {
   // Switches to another version of the map: memory is emptied and filled again for the focus
   // (from the disk cache where the versions share tiles).
   void pin_version(long long version);
+
+  // The places of the version in use (status().version): opaque bytes (the place-recognition
+  // descriptors built with the map). Blocks for at most about timeout_s: until a version is known,
+  // then for GET /v1/maps/{map}/versions/{v}/places on the caller's thread (over a connection of
+  // its own, never the background thread's). The answer is kept in memory for the version: the
+  // bytes (checked against their ETag), or that the server has none for it (HTTP 404); either is
+  // returned at once by later calls, and places(0) returns only what is kept. Nothing also when the
+  // server cannot be reached or fails within the timeout (status().last_error says why; the next
+  // call asks again). Not kept in the disk cache. Throws pl::Error for a timeout that is not a
+  // number >= 0.
+  std::optional<std::string> places(double timeout_s);
 
   TileClientStatus status() const;
 

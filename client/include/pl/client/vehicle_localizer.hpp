@@ -52,7 +52,7 @@ struct VehicleLocalizerConfig {
   double metres_per_tick = 1.0;              // for add_wheel_ticks
   std::size_t max_odometry_samples = 20000;  // the buffer's bound (200 s at 100 Hz)
   bool start_from_gps = false;               // start at the first scan that has a GPS fix within 0.5 s
-  registration::PoseSearch search;           // the search of start_near()
+  registration::PoseSearch search;           // the reach of start_near(): radius_m and yaw_range_deg
   registration::PoseSearch gps_search = [] {
     registration::PoseSearch s;
     s.yaw_range_deg = 180.0;  // a fix has no heading
@@ -84,6 +84,9 @@ class VehicleLocalizer {
   // Start (any thread). The tiles round the pose are loaded on the worker, then the filter starts.
   void start(const Eigen::Isometry3d& base_in_map, double t);
   void start_near(const Eigen::Isometry3d& rough_base_in_map, double t);
+  // No pose at all: the scans search the whole map by its places (reported lost until a verified
+  // pose is found). Throws pl::Error when the map version has no places.
+  void start_global(double t);
 
   // Odometry (any thread; times must increase). Base frame, cumulative in the odometry's own frame.
   void add_odometry_pose(double t, const Eigen::Isometry3d& base_in_odom);

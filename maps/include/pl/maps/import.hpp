@@ -24,7 +24,14 @@ struct ImportConfig {
   std::optional<GeoPoint> origin;  // of the cloud's ENU frame, when the cloud does not record it
   std::string note;                // of the version; default "tiled from SOURCE"
   std::string who = "pl-map";      // in the store's upload log
+  // The places (for relocalization) stored with the version: this file, as pl-map build writes it
+  // beside its map; empty: none (the version keeps no places, a parent's would describe other tiles).
+  std::string places;
 };
+
+// Where pl-map build writes the places of a map it writes to `cloud`: the same name with the
+// extension .places ("drive.pcd" -> "drive.places").
+std::string places_path(const std::string& cloud);
 
 struct ImportResult {
   store::VersionInfo version;  // the new staged version
@@ -32,6 +39,7 @@ struct ImportResult {
   std::size_t tiles = 0, changed = 0, unchanged = 0, removed = 0;  // against the parent version
   std::size_t points = 0;                                           // after voxelizing
   double bytes = 0;                                                 // Draco bytes of all tiles
+  std::size_t places = 0;                                           // stored with the version
 };
 
 // Throws pl::Error naming the fix for a bad config (voxel, tile size, normal radius, max error).

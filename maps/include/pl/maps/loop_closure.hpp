@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "pl/maps/place_descriptor.hpp"
+#include "pl/registration/place_descriptor.hpp"
 #include "pl/maps/pose_graph.hpp"
 
 namespace pl::maps {
@@ -57,7 +57,7 @@ struct LoopClosureConfig {
   int solve_iterations = 20;
   double max_residual_m = 0.3;
   double max_gps_cost_rise = 10.0;
-  PlaceDescriptorConfig descriptor;
+  registration::PlaceDescriptorConfig descriptor;
 };
 
 struct LoopRecord {

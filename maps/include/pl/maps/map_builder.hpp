@@ -11,6 +11,7 @@
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
 #include "pl/common/voxel.hpp"
+#include "pl/registration/place_index.hpp"
 
 namespace pl::maps {
 
@@ -37,11 +38,21 @@ struct MapBuildConfig {
   double voxel_m = 0.2;
   ScanPrepConfig scan;  // crops applied to every scan before merging (all beams by default)
   std::size_t first = 0, last = SIZE_MAX, every = 1;  // which scans
+  // Places for relocalization: the descriptor of a merged scan (levelled by its pose) whenever the
+  // sensor has moved this far since the last place; 0: none.
+  double place_spacing_m = 2.0;
+  // Motion compensation: each scan's points moved to where the sensor was at the scan's time, by
+  // the motion between its neighbours' poses (constant velocity over the sweep of sweep_s), each
+  // point's time from its azimuth.
+  bool deskew = false;
+  double sweep_s = 0.1;
+  registration::PlaceDescriptorConfig place;
 };
 
 struct MapCloud {
   Points3d points;               // world frame of the dataset
   std::vector<float> intensity;  // one per point
+  registration::PlaceIndex places;  // world frame, like the points
 };
 
 // Merges the dataset's scans placed by `poses` (one per scan). `progress(done, total)` may be null.

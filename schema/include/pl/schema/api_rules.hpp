@@ -1,8 +1,10 @@
 // The rules pl-server and its clients (the vehicle's tile client, pl-map push, the disk cache) must
-// agree on, written once: what a map name, a content hash and a tile size may be, and how large a
-// region-of-interest query may get. schema/openapi.yaml states the same in words.
+// agree on, written once: what a map name, a content hash and a tile size may be, how large a
+// region-of-interest query may get and how large a version's places may be. schema/openapi.yaml
+// states the same in words.
 #pragma once
 
+#include <cstddef>
 #include <string_view>
 
 namespace pl::api {
@@ -21,5 +23,9 @@ bool valid_tile_size(double metres);
 
 // The largest radius a region-of-interest query may ask for.
 constexpr double kMaxRoiRadiusM = 5000.0;
+
+// The largest places blob of a map version (its place-recognition descriptors): what the store
+// keeps, pl-server takes in a PUT and the tile client accepts.
+constexpr std::size_t kMaxPlacesBytes = std::size_t{64} << 20;
 
 }  // namespace pl::api

@@ -1,29 +1,30 @@
 // The map store: versioned maps of Draco tiles in one SQLite file (schema/*.sql, migrated by
 // PRAGMA user_version). WAL mode, foreign keys on. A Store is one connection: open one per thread.
 //
-// Semantics (the schema is in schema/001_initial.sql):
+// Semantics (the schema is in schema/001_initial.sql and 002_places.sql):
 // - Every error (SQLite's included) is a pl::Error whose message starts with the database path.
 // - Several connections (threads or processes) may use one file: WAL lets readers run next to one
 //   writer; writers take the write lock up front (BEGIN IMMEDIATE) and wait up to 5 s for it.
-// - Unknown maps: the reading calls (find_*, list_*, tiles_in_box, upload_log) return nothing
-//   (std::nullopt or an empty list); the writing calls (create_version, publish, rollback,
-//   put_tile, delete_tile) throw pl::Error "PATH: unknown map NAME". An unknown version of a known
-//   map is handled the same way. log_upload accepts any map name (attempts on unknown maps are
-//   worth logging).
+// - Unknown maps: the reading calls (find_*, list_*, tiles_in_box, places, places_hash,
+//   upload_log) return nothing (std::nullopt or an empty list); the writing calls (create_version,
+//   publish, rollback, put_tile, delete_tile, put_places, delete_places) throw pl::Error "PATH:
+//   unknown map NAME". An unknown version of a known map is handled the same way. log_upload
+//   accepts any map name (attempts on unknown maps are worth logging).
 // - Version numbers are 1, 2, ... per map. A version is staged, then published (it becomes the
 //   map's current version; the previously current one is retired), and may later be retired by a
 //   newer publish or a rollback, and published again by a rollback. Only staged versions accept
-//   tile writes. Readers use MapInfo::current; staged tiles are only seen by asking for that
-//   version number explicitly.
+//   writes of tiles and places. Readers use MapInfo::current; staged tiles are only seen by asking
+//   for that version number explicitly.
 // - Timestamps are UTC ISO 8601 with milliseconds and 'Z' ("2024-05-01T10:11:12.345Z").
 // - Damaged or crafted files: SQLite's own reports of damage (on any call) and every value that
 //   breaks what the schema promises (types, NOT NULL, ranges, names, hashes, states, timestamps, a
-//   current version that is not published, a parent that does not exist, a blob whose bytes do not
-//   hash to its hash) are a pl::Error "PATH: the map store is damaged (WHAT): restore it from a
-//   backup, or rebuild it with pl-map". A schema that is not exactly the migrations' own (an extra
-//   trigger, a view for a table, a table without its constraints) is refused at open. Damage SQLite
-//   only finds in a full check (keys out of order, an index that disagrees with its table) shows in
-//   integrity_ok(). Free text (notes, the upload log) is returned as it was stored, byte for byte.
+//   current version that is not published, a parent that does not exist, a blob or places whose
+//   bytes do not hash to their hash) are a pl::Error "PATH: the map store is damaged (WHAT):
+//   restore it from a backup, or rebuild it with pl-map". A schema that is not exactly the
+//   migrations' own (an extra trigger, a view for a table, a table without its constraints) is
+//   refused at open. Damage SQLite only finds in a full check (keys out of order, an index that
+//   disagrees with its table) shows in integrity_ok(). Free text (notes, the upload log) is
+//   returned as it was stored, byte for byte.
 // - Opening writes nothing to a file it refuses. Opening a current WAL store writes nothing at all;
 //   a store that open must switch to WAL or migrate is first checked whole (PRAGMA quick_check).
 #pragma once
@@ -100,10 +101,11 @@ class Store {
   std::optional<MapInfo> find_map(const std::string& name) const;
   std::vector<MapInfo> list_maps() const;
 
-  // Versions. A new version is staged, starts as a copy of its parent's tiles (the current version
-  // when `parent` is empty; none for the first), and is invisible to readers until published.
-  // The copy is of the tile rows only: blobs are shared by content hash. The parent may be in any
-  // state; an explicit parent that does not exist is an error. list_versions is ordered by number.
+  // Versions. A new version is staged, starts as a copy of its parent's tiles and places (the
+  // current version when `parent` is empty; none for the first), and is invisible to readers until
+  // published. The tile copy is of the rows only: blobs are shared by content hash; the places are
+  // copied whole. The parent may be in any state; an explicit parent that does not exist is an
+  // error. list_versions is ordered by number.
   VersionInfo create_version(const std::string& map, std::optional<std::int64_t> parent, const std::string& note);
   std::optional<VersionInfo> find_version(const std::string& map, std::int64_t number) const;
   std::vector<VersionInfo> list_versions(const std::string& map) const;
@@ -136,6 +138,18 @@ class Store {
   // The bytes whose SHA-256 is `hash` (checked: bytes that changed on disk are a damaged error).
   std::optional<std::string> blob(const std::string& hash) const;
   bool has_blob(const std::string& hash) const;
+
+  // Places: one opaque blob per version, the place-recognition descriptors built with the map
+  // (their format is the map builder's). put_places and delete_places write a staged version only
+  // (pl::Error naming the version and its state otherwise); put_places requires 1 byte to
+  // api::kMaxPlacesBytes (64 MiB) and replaces the version's places. delete_places returns false
+  // when the version has none. places returns nothing for an unknown map or version or a version
+  // without places; its bytes are checked against their SHA-256 (bytes that changed on disk are a
+  // damaged error). places_hash is that SHA-256 (lowercase hex) without reading the bytes.
+  void put_places(const std::string& map, std::int64_t version, std::string_view bytes);
+  bool delete_places(const std::string& map, std::int64_t version);
+  std::optional<std::string> places(const std::string& map, std::int64_t version) const;
+  std::optional<std::string> places_hash(const std::string& map, std::int64_t version) const;
 
   // Tokens are stored hashed (SHA-256), never in plain; check_token returns the role of a known
   // token. add_token throws pl::Error for an empty token or one that is already registered.

@@ -27,7 +27,7 @@ TileUpload check_tile_upload(std::string_view bytes, double tile_size, const Til
 struct ApiConfig {
   std::string db;
   bool read_token_required = false;
-  std::size_t blob_cache_bytes = 256u << 20;  // immutable tiles kept in memory, by content hash
+  std::size_t blob_cache_bytes = 256u << 20;  // immutable tiles and places kept in memory, by content hash
 };
 
 struct ApiRequest {
@@ -43,7 +43,7 @@ struct ApiRequest {
 struct ApiResponse {
   int status = 200;
   std::string body;
-  std::shared_ptr<const std::string> blob;  // when set, the body: tile bytes shared with the cache, not copied
+  std::shared_ptr<const std::string> blob;  // when set, the body: tile or places bytes shared with the cache, not copied
   std::string blob_hash;                     // their content hash
   std::string content_type = "application/json";
   std::vector<std::pair<std::string, std::string>> headers;
@@ -62,6 +62,7 @@ class Metrics {
   static constexpr const char* kRoutes[] = {"/healthz", "/readyz", "/metrics", "/v1/maps", "/v1/maps/{map}", "/v1/maps/{map}/roi",
                                             "/v1/maps/{map}/versions", "/v1/maps/{map}/versions/{v}/tiles",
                                             "/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}", "/v1/maps/{map}/versions/{v}/publish",
+                                            "/v1/maps/{map}/versions/{v}/places",
                                             "/v1/blobs/{hash}", "other"};
   static constexpr int kStatuses[] = {200, 201, 204, 304, 400, 401, 403, 404, 405, 409, 413, 422, 431, 500, 503, 0};  // 0: any other
   static constexpr double kBuckets[] = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 1.0};
@@ -80,7 +81,8 @@ class Api {
   // HEAD answers as GET (the caller drops the body), OPTIONS with 204 and Allow; 405 carries
   // Allow, 401 WWW-Authenticate; JSON is gzip-compressed when req.accept_encoding allows.
   ApiResponse handle(const ApiRequest& req);
-  // Largest body accepted for a route (413 beyond): tiles up to 64 MB, JSON bodies 64 KB, else 0.
+  // Largest body accepted for a route (413 beyond): tiles and places up to 64 MiB, JSON bodies
+  // 64 KiB, else 0.
   static std::size_t body_limit(const std::string& method, const std::string& target);
   void set_draining(bool on) { draining_ = on; }
   bool ready();

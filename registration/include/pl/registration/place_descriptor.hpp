@@ -10,7 +10,7 @@
 
 #include <vector>
 
-namespace pl::maps {
+namespace pl::registration {
 
 struct PlaceDescriptorConfig {
   int rings = 20;
@@ -41,4 +41,4 @@ DescriptorMatch compare_descriptors(const PlaceDescriptor& a, const PlaceDescrip
 // Squared Euclidean distance between ring keys.
 double ring_key_distance(const PlaceDescriptor& a, const PlaceDescriptor& b);
 
-}  // namespace pl::maps
+}  // namespace pl::registration

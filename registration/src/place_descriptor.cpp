@@ -1,12 +1,12 @@
 // Polar height grid (Scan Context style) and its shift-searched comparison.
-#include "pl/maps/place_descriptor.hpp"
+#include "pl/registration/place_descriptor.hpp"
 
 #include <algorithm>
 #include <cmath>
 
 #include "pl/common/error.hpp"
 
-namespace pl::maps {
+namespace pl::registration {
 
 PlaceDescriptor make_place_descriptor(const std::vector<Eigen::Vector3f>& points, const PlaceDescriptorConfig& cfg) {
   if (cfg.rings < 1 || cfg.sectors < 4 || !(cfg.max_range_m > 0)) throw Error("place descriptor: needs rings >= 1, sectors >= 4, a positive range");
@@ -85,4 +85,4 @@ double ring_key_distance(const PlaceDescriptor& a, const PlaceDescriptor& b) {
   return d;
 }
 
-}  // namespace pl::maps
+}  // namespace pl::registration

@@ -1,0 +1,27 @@
+// Motion compensation of a spinning LiDAR's sweep: a scan's points are taken over the sweep while
+// the sensor moves, and each is moved to where the sensor was at the scan's time, with the motion
+// over the sweep taken as constant (from the prediction, or neighbouring poses of a drive).
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <vector>
+
+namespace pl::registration {
+
+// A motion d scaled by f at constant velocity: its rotation angle and translation times f.
+Eigen::Isometry3d scale_motion(const Eigen::Isometry3d& d, double f);
+
+// A point's time within the sweep from its azimuth, as a share of the sweep: a clockwise spin
+// (Velodyne's) timed when facing straight ahead (KITTI's): -0.5 just past the back on the left, 0
+// ahead, +0.5 back on the right.
+inline float sweep_share_from_azimuth(const Eigen::Vector3f& p) {
+  return static_cast<float>(-std::atan2(static_cast<double>(p.y()), static_cast<double>(p.x())) / (2.0 * M_PI));
+}
+
+// Each point (sensor frame) moved by its share of `sweep`, the sensor's motion over one whole sweep
+// in its own frame: p -> R(s) p + s t. Shares from the azimuth when `shares` is empty.
+void compensate_motion(std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& sweep, const std::vector<float>& shares = {});
+
+}  // namespace pl::registration
