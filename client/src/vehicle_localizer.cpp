@@ -263,9 +263,14 @@ VehicleLocalizer::VehicleLocalizer(const VehicleLocalizerConfig& cfg) : impl_(st
   // stay round the prediction).
   const std::optional<std::string> places = m.store ? m.store->places() : m.client->places(cfg.ready_timeout_s);
   if (places) {
+    // Damaged places do not stop the vehicle: it localizes without them and says so.
     const std::string source = "places of map " + cfg.tiles.map + " version " + std::to_string(m.version);
-    m.loc->set_places(std::make_shared<const registration::PlaceIndex>(registration::PlaceIndex::decode(*places, source)),
-                      [raw](const Eigen::Vector2d& c, double r) { return raw->tiles_far(c, r); });
+    try {
+      m.loc->set_places(std::make_shared<const registration::PlaceIndex>(registration::PlaceIndex::decode(*places, source)),
+                        [raw](const Eigen::Vector2d& c, double r) { return raw->tiles_far(c, r); });
+    } catch (const Error& e) {
+      m.error = std::string(e.what()) + "; localizing without them (searches stay round the prediction)";
+    }
   }
   m.worker = std::thread([raw] { raw->run(); });
 }

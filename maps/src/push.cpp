@@ -86,6 +86,13 @@ PushReport push_version(const PushOptions& o) {
              "deleting tile " + std::to_string(key.tx) + "/" + std::to_string(key.ty));
       ++r.deleted;
     }
+  // The places go with the tiles: the new version started with a copy of the server's current ones.
+  if (const auto places = store.places(o.map, o.version)) {
+    expect(http.request("PUT", vbase + "/places", *places, auth), {200}, "uploading the places");
+    r.places = true;
+  } else {
+    expect(http.request("DELETE", vbase + "/places", "", auth), {200, 404}, "removing the places the local version lacks");
+  }
   expect(http.request("POST", vbase + "/publish", "", auth), {200}, "publishing version " + std::to_string(r.remote_version));
   return r;
 }

@@ -147,11 +147,15 @@ TEST(Maps, PushUploadsOnlyWhatTheServerLacks) {
   }
   ASSERT_GE(changed, 1u);
   ASSERT_LT(changed, 6u);
+  // The second version has places (opaque to the store and the server): the push carries them.
+  pl::store::Store::open(local, false).put_places("m", 2, "places of v2");
   auto second = pl::test::run(pl_map("push --db " + local + " --map m --version 2 --server " + server.url() + " --token up-1"));
   ASSERT_EQ(second.exit_code, 0) << second.output;
   EXPECT_NE(second.output.find("as v2: 6 tiles, " + std::to_string(changed) + " uploaded"), std::string::npos) << second.output;
   auto store = pl::store::Store::open(remote, false);
   EXPECT_EQ(store.find_map("m")->current.value(), 2);
+  EXPECT_FALSE(store.places("m", 1).has_value());
+  EXPECT_EQ(store.places("m", 2).value_or("none"), "places of v2");
   auto a = pl::store::Store::open(local, false).list_tiles("m", 2), b = store.list_tiles("m", 2);
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].hash, b[i].hash);

@@ -15,11 +15,12 @@ struct PushReport {
   std::int64_t remote_version = 0;
   std::size_t tiles = 0, uploaded = 0, skipped = 0, deleted = 0;
   std::size_t bytes = 0;
+  bool places = false;  // the local version's places were uploaded (else the remote copy's removed)
 };
 
 // Opens a staged version on the server (a copy of its current one), uploads the local version's
 // tiles whose content the server's copy does not have, deletes the tiles the local version lacks,
-// and publishes. Creates the map on the server when it is missing (that needs an admin token).
+// replaces the places with the local version's (or removes them), and publishes. Creates the map on the server when it is missing (that needs an admin token).
 // Throws pl::Error with the server's answer when a step fails; an unpublished staged version left
 // on the server by a failed push stays invisible to readers.
 PushReport push_version(const PushOptions& o);
