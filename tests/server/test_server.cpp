@@ -41,6 +41,15 @@ std::map<std::string, std::string> bearer(const std::string& token) { return {{"
 
 json body_json(const pl::api::HttpResponse& r) { return json::parse(r.body); }
 
+// An error answer: the status, in the body too, and an error text containing `words`.
+void expect_error(const pl::api::HttpResponse& r, int status, const std::string& words) {
+  EXPECT_EQ(r.status, status) << r.body;
+  json j = json::parse(r.body, nullptr, false);
+  ASSERT_FALSE(j.is_discarded()) << r.body;
+  EXPECT_EQ(j["status"], status);
+  EXPECT_NE(j["error"].get<std::string>().find(words), std::string::npos) << r.body;
+}
+
 }  // namespace
 
 TEST(Server, TilesDecodeToTheCloudWithinTheQuantizationBound) {
@@ -230,13 +239,7 @@ TEST(Server, BadInputGetsTheRightStatusAndAJsonError) {
   MapFixture f;
   ServerProcess server(f.db, f.token_args());
   HttpClient http(server.url());
-  auto expect = [&](const pl::api::HttpResponse& r, int status, const std::string& words) {
-    EXPECT_EQ(r.status, status) << r.body;
-    json j = json::parse(r.body, nullptr, false);
-    ASSERT_FALSE(j.is_discarded()) << r.body;
-    EXPECT_EQ(j["status"], status);
-    EXPECT_NE(j["error"].get<std::string>().find(words), std::string::npos) << r.body;
-  };
+  const auto expect = expect_error;
   expect(http.get("/v1/maps/town/roi?x=abc&y=0&radius=5"), 400, "x must be a number");
   expect(http.get("/v1/maps/town/roi?y=0&radius=5"), 400, "missing query parameter x");
   expect(http.get("/v1/maps/town/versions/zero/tiles/0/0"), 400, "version");
@@ -272,13 +275,7 @@ TEST(Server, PlacesAreUploadedWhileStagedAndServedUnderTheirHash) {
   MapFixture f;
   ServerProcess server(f.db, f.token_args());
   HttpClient http(server.url());
-  auto expect = [&](const pl::api::HttpResponse& r, int status, const std::string& words) {
-    EXPECT_EQ(r.status, status) << r.body;
-    json j = json::parse(r.body, nullptr, false);
-    ASSERT_FALSE(j.is_discarded()) << r.body;
-    EXPECT_EQ(j["status"], status);
-    EXPECT_NE(j["error"].get<std::string>().find(words), std::string::npos) << r.body;
-  };
+  const auto expect = expect_error;
   const std::string at = "/v1/maps/town/versions/";
   // pl-map tile found no places beside the cloud: version 1 has none.
   expect(http.get(at + "1/places"), 404, "map town version 1 has no places: rebuild it with pl-map build and pl-map tile");
