@@ -479,8 +479,10 @@ void Localizer::fuse(ScanReport& r) {
   r.gated = r.icp.accepted && r.plausible && !gate;
   // A relocalization search that moved the vehicle relocated it: what momentum and the local map
   // knew of the motion belongs to the old place.
-  const bool relocated =
-      take && relocalizing_ && r.basin == Basin::Search && horizontal_distance(r.predicted, r.icp.pose) > m.lost_m;
+  // (With no pose at all, or turned beyond the coarse basin, it relocates however near it lies.)
+  const bool relocated = take && relocalizing_ && r.basin == Basin::Search &&
+                         (global_ || horizontal_distance(r.predicted, r.icp.pose) > m.lost_m ||
+                          dyaw > m.coarse_basin_deg * kDeg);
   if (relocated) {
     fusion_.restart(r.icp.pose, t);
     odometry_.reset();
