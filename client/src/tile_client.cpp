@@ -90,7 +90,7 @@ struct TileClient::Impl {
   TileMemory memory;  // the decoded tiles
 
   // ---- places(): its callers, one at a time under places_mu
-  std::timed_mutex places_mu;
+  std::mutex places_mu;
   std::optional<long long> places_version;  // the version whose answer is kept
   std::optional<std::string> places_bytes;  // that answer: the bytes, or nothing (it has none)
 
@@ -447,8 +447,10 @@ std::optional<std::string> TileClient::places(double timeout_s) {
     throw Error("TileClient::places: the timeout must be a number of seconds >= 0, got " + number(timeout_s));
   Impl& m = *impl_;
   const auto deadline = deadline_in(timeout_s);
-  std::unique_lock<std::timed_mutex> one_at_a_time(m.places_mu, std::defer_lock);
-  if (!one_at_a_time.try_lock_until(deadline)) return std::nullopt;  // another caller is fetching
+  // One caller at a time (a second one waits for the first's fetch, itself bounded by its timeout).
+  // A plain mutex: ThreadSanitizer misreads std::timed_mutex's timed lock as an unlock of an
+  // unlocked mutex.
+  std::lock_guard<std::mutex> one_at_a_time(m.places_mu);
   long long version = 0;
   {
     std::unique_lock<std::mutex> lock(m.mu);
