@@ -41,10 +41,24 @@ double registration_sigma(const registration::IcpResult& r, double independent) 
   return std::sqrt(std::max(0.0, top)) * std::sqrt(std::max(1.0, static_cast<double>(r.pairs) / independent));
 }
 
+// How far b is turned from a about the vertical, radians (>= 0).
+double turn_between(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  const Eigen::Matrix3d d = a.linear().transpose() * b.linear();
+  return std::abs(std::atan2(d(1, 0), d(0, 0)));
+}
+
 // Poses distinctly different: farther apart than distinct_m, or turned more than distinct_deg.
 bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const IntegrityConfig& c) {
-  const Eigen::Matrix3d d = a.linear().transpose() * b.linear();
-  return horizontal_distance(a, b) > c.distinct_m || std::abs(std::atan2(d(1, 0), d(0, 0))) > c.distinct_deg * kDeg;
+  return horizontal_distance(a, b) > c.distinct_m || turn_between(a, b) > c.distinct_deg * kDeg;
+}
+
+// The horizontal direction the registration holds least (x when its covariance says nothing).
+Eigen::Vector2d weakest_direction(const registration::IcpResult& r) {
+  const Eigen::Matrix2d xy = r.covariance.topLeftCorner<2, 2>();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(xy);
+  Eigen::Vector2d weak = es.eigenvectors().col(1);
+  if (!weak.allFinite() || weak.norm() < 0.5) weak = Eigen::Vector2d::UnitX();
+  return weak;
 }
 
 }  // namespace
@@ -65,13 +79,6 @@ const char* basin_name(Basin b) {
     case Basin::Search: return "search";
   }
   return "?";
-}
-
-std::vector<Eigen::Vector3f> to_points(const Scan& scan) {
-  std::vector<Eigen::Vector3f> out;
-  out.reserve(scan.size());
-  for (const auto& p : scan) out.emplace_back(p.x, p.y, p.z);
-  return out;
 }
 
 Localizer::Localizer(const LocalizerConfig& cfg, double tile_size, TileProvider tiles)
@@ -110,7 +117,11 @@ void Localizer::update_map(const Eigen::Vector2d& center) {
     map_ = std::make_unique<RoiMap>(tile_size_, anchor, cfg_.map);
     coarse_ = std::make_unique<RoiMap>(tile_size_, anchor, cfg_.coarse_map);
   }
-  const std::vector<MapTile> tiles = tiles_(center, cfg_.roi_radius_m);
+  load_maps(center, tiles_);
+}
+
+void Localizer::load_maps(const Eigen::Vector2d& center, const TileProvider& provider) {
+  const std::vector<MapTile> tiles = provider(center, cfg_.roi_radius_m);
   map_->update(tiles);
   coarse_->update(tiles);
   map_center_ = center;
@@ -318,14 +329,10 @@ std::vector<registration::Candidate> Localizer::search(const std::vector<Eigen::
   if (jumped && has_places()) {
     const PlaceConfig& pc = cfg_.places;
     // The scan levelled by the prediction's roll and pitch, as the places are.
-    const Eigen::Matrix3d level =
-        Eigen::AngleAxisd(-registration::heading_of(guess), Eigen::Vector3d::UnitZ()).toRotationMatrix() * guess.linear();
-    std::vector<Eigen::Vector3f> levelled;
-    levelled.reserve(points.size());
-    for (const auto& p : points) levelled.push_back((level * p.cast<double>()).cast<float>());
+    const Eigen::Matrix3d level = registration::levelling(guess);
     // Within the gate's reach (the gate takes 3 sigma of the uncertainty, at least relocalize_m).
     const double reach = std::max(3.0 * std::min(u.along, u.across), m.relocalize_m);
-    const auto proposals = places_->propose(registration::make_place_descriptor(levelled, places_->config()),
+    const auto proposals = places_->propose(registration::levelled_descriptor(points, guess, places_->config()),
                                             static_cast<std::size_t>(pc.proposals), guess.translation().head<2>(),
                                             global_ ? 0.0 : reach);
     registration::PoseSearch s;
@@ -337,12 +344,7 @@ std::vector<registration::Candidate> Localizer::search(const std::vector<Eigen::
     const TileProvider& far = far_tiles_ ? far_tiles_ : tiles_;
     for (const auto& p : proposals) {
       const Eigen::Vector2d xy = p.pose.translation().head<2>();
-      if ((xy - map_center_).norm() > cfg_.roi_radius_m - m.relocalize_m) {
-        const std::vector<MapTile> tiles = far(xy, cfg_.roi_radius_m);
-        map_->update(tiles);
-        coarse_->update(tiles);
-        map_center_ = xy;
-      }
+      if ((xy - map_center_).norm() > cfg_.roi_radius_m - m.relocalize_m) load_maps(xy, far);
       Eigen::Isometry3d seed = p.pose;
       seed.linear() = seed.linear() * level.transpose();  // the scan's tilt, as predicted
       for (auto& c : registration::search_poses(coarse_->points_map(), map_->points_map(), points, seed, s, cfg_.icp))
@@ -369,10 +371,7 @@ void Localizer::check_integrity(const std::vector<Eigen::Vector3f>& points, Scan
   // Perturbed seeds round the solution: along the direction the registration holds least and across
   // it, each with a turn. (A search has its own alternatives.)
   if (r.basin != Basin::Search && c.seeds > 0) {
-    const Eigen::Matrix2d xy = r.icp.covariance.topLeftCorner<2, 2>();
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(xy);
-    Eigen::Vector2d weak = es.eigenvectors().col(1);
-    if (!weak.allFinite() || weak.norm() < 0.5) weak = Eigen::Vector2d::UnitX();
+    const Eigen::Vector2d weak = weakest_direction(r.icp);
     const std::vector<Eigen::Vector3f> sparse = registration::subsample(points, 400);
     const registration::IcpConfig wide = registration::coarse_icp(cfg_.icp, 10);
     registration::IcpConfig refine = cfg_.icp;
@@ -413,10 +412,7 @@ void Localizer::check_integrity(const std::vector<Eigen::Vector3f>& points, Scan
   r.registration_sigma_m = registration_sigma(r.icp, c.independent_pairs);
   // The basin's flatness along the direction held least.
   if (c.probe_m > 0 && c.probe_iterations > 0) {
-    const Eigen::Matrix2d xy = r.icp.covariance.topLeftCorner<2, 2>();
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(xy);
-    Eigen::Vector2d weak = es.eigenvectors().col(1);
-    if (!weak.allFinite() || weak.norm() < 0.5) weak = Eigen::Vector2d::UnitX();
+    const Eigen::Vector2d weak = weakest_direction(r.icp);
     const std::vector<Eigen::Vector3f> sparse = registration::subsample(points, static_cast<std::size_t>(c.probe_points));
     registration::IcpConfig probe = cfg_.icp;
     probe.max_iterations = c.probe_iterations;
@@ -440,9 +436,8 @@ void Localizer::check_integrity(const std::vector<Eigen::Vector3f>& points, Scan
   // The scan after a verified search result confirms it when its own search lands where that result
   // predicted (as a registration from the prediction would have).
   const MotionConfig& m = cfg_.motion;
-  const Eigen::Isometry3d step = r.predicted.inverse() * r.icp.pose;
   const bool confirms = previous_verified_ && horizontal_distance(r.predicted, r.icp.pose) <= m.fine_basin_m &&
-                        std::abs(std::atan2(step.linear()(1, 0), step.linear()(0, 0))) <= m.fine_basin_deg * kDeg;
+                        turn_between(r.predicted, r.icp.pose) <= m.fine_basin_deg * kDeg;
   const bool searched = r.basin == Basin::Search && !confirms;
   r.integrity = r.verified && !r.resolved && !searched;
   if (!absolute) r.note = r.icp.inlier_share < c.min_share ? "too few scan points on a map surface" : "residual too large";
@@ -465,7 +460,7 @@ void Localizer::fuse(ScanReport& r) {
 
   // The gate: the correction within 3 sigma of the prediction (plus a floor), axis by axis.
   const Eigen::Isometry3d delta = r.predicted.inverse() * r.icp.pose;
-  const double dyaw = std::abs(std::atan2(delta.linear()(1, 0), delta.linear()(0, 0)));
+  const double dyaw = turn_between(r.predicted, r.icp.pose);
   // A relocalization by the map's places looks at every heading: its heading is not gated.
   const bool any_heading = relocalizing_ && r.place_proposals > 0;
   // With no pose at all (a global start) nothing is gated.

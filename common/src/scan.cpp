@@ -36,6 +36,13 @@ void check_finite(const Scan& scan, const std::string& name) {
 
 }  // namespace
 
+std::vector<Eigen::Vector3f> to_points(const Scan& scan) {
+  std::vector<Eigen::Vector3f> out;
+  out.reserve(scan.size());
+  for (const auto& p : scan) out.emplace_back(p.x, p.y, p.z);
+  return out;
+}
+
 Scan parse_kitti_bin(std::string_view bytes, const std::string& name) {
   if (bytes.size() % sizeof(PointXYZI) != 0) throw Error(not_whole_points(bytes.size(), name));
   // The point count comes from the bytes present, so the allocation is exactly what they hold.

@@ -19,8 +19,7 @@ namespace pl::maps {
 
 namespace {
 
-// Real recordings (no meta.json: KITTI) sweep while the car moves; pl-sim's scans are taken at one
-// pose unless it was told to sweep (its meta.json then says so).
+// Real recordings (no meta.json: KITTI) sweep while the car moves; pl-sim's scans are taken at one pose.
 bool deskews(const GloamConfig& cfg, const Dataset& ds) {
   return cfg.deskew == Deskew::On || (cfg.deskew == Deskew::Auto && !ds.has_meta_file);
 }

@@ -10,18 +10,13 @@
 namespace pl::maps {
 namespace {
 
-// The place of a scan at `pose`: its descriptor with the points turned level (the pose's roll and
-// pitch taken out, its heading kept in the sensor frame), so that a level scan taken there later
+// The place of a scan at `pose`: its levelled descriptor, so that a level scan taken there later
 // matches it.
 registration::Place place_of(const Scan& scan, const Eigen::Isometry3d& pose, const registration::PlaceDescriptorConfig& cfg) {
   registration::Place place;
   place.position = pose.translation();
   place.yaw = registration::heading_of(pose);
-  const Eigen::Matrix3d level = Eigen::AngleAxisd(-place.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * pose.linear();
-  std::vector<Eigen::Vector3f> points;
-  points.reserve(scan.size());
-  for (const auto& p : scan) points.push_back((level * Eigen::Vector3d(p.x, p.y, p.z)).cast<float>());
-  place.descriptor = registration::make_place_descriptor(points, cfg);
+  place.descriptor = registration::levelled_descriptor(to_points(scan), pose, cfg);
   return place;
 }
 
@@ -33,9 +28,7 @@ void deskew(Scan& scan, const Trajectory& poses, std::size_t i, double sweep_s) 
   const double dt = poses.times[b] - poses.times[a];
   if (!(dt > 0)) return;
   const Eigen::Isometry3d sweep = registration::scale_motion(poses.poses[a].inverse() * poses.poses[b], sweep_s / dt);
-  std::vector<Eigen::Vector3f> points;
-  points.reserve(scan.size());
-  for (const auto& p : scan) points.emplace_back(p.x, p.y, p.z);
+  std::vector<Eigen::Vector3f> points = to_points(scan);
   registration::compensate_motion(points, sweep);
   for (std::size_t k = 0; k < scan.size(); ++k) scan[k].x = points[k].x(), scan[k].y = points[k].y(), scan[k].z = points[k].z();
 }

@@ -62,7 +62,8 @@ DescriptorMatch compare_descriptors(const PlaceDescriptor& a, const PlaceDescrip
       double dot = 0;
       for (int r = 0; r < nr; ++r)
         dot += static_cast<double>(a.cells[static_cast<std::size_t>(r * ns + s)]) * b.cells[static_cast<std::size_t>(r * ns + t)];
-      sum += 1.0 - dot / (ma * mb);
+      // A column against itself can round to just below 0: the distance of a cosine is never negative.
+      sum += std::max(0.0, 1.0 - dot / (ma * mb));
       ++both;
     }
     if (both * 4 < ns) continue;

@@ -92,6 +92,19 @@ double heading_of(const Eigen::Isometry3d& pose) {
   return std::atan2(x.y(), x.x());
 }
 
+Eigen::Matrix3d levelling(const Eigen::Isometry3d& pose) {
+  return Eigen::AngleAxisd(-heading_of(pose), Eigen::Vector3d::UnitZ()).toRotationMatrix() * pose.linear();
+}
+
+PlaceDescriptor levelled_descriptor(const std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& pose,
+                                    const PlaceDescriptorConfig& cfg) {
+  const Eigen::Matrix3d level = levelling(pose);
+  std::vector<Eigen::Vector3f> levelled;
+  levelled.reserve(points.size());
+  for (const auto& p : points) levelled.push_back((level * p.cast<double>()).cast<float>());
+  return make_place_descriptor(levelled, cfg);
+}
+
 PlaceIndex::PlaceIndex(const PlaceDescriptorConfig& cfg, std::vector<Place> places) : cfg_(cfg), places_(std::move(places)) {
   const std::size_t cells = static_cast<std::size_t>(cfg.rings) * static_cast<std::size_t>(std::max(cfg.sectors, 0));
   for (const Place& p : places_) {

@@ -29,11 +29,14 @@ run_one() {
   local dict=()
   [[ -f "$ROOT/tests/fuzz/$t.dict" ]] && dict=(-dict="$ROOT/tests/fuzz/$t.dict")
   # libFuzzer writes new inputs to the first folder only: the repository's corpus stays as it is.
+  # It refuses a folder that does not exist, and git keeps no empty folder: pass only those there.
+  local seeds=()
+  for d in "$ROOT/tests/fuzz/corpus/$t" "$ROOT/tests/fuzz/regressions/$t"; do [[ -d "$d" ]] && seeds+=("$d"); done
   ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=1} \
   UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1} \
     "$BIN/fuzz_$t" -max_total_time="$SECONDS_EACH" -timeout=10 -rss_limit_mb="$RSS_MB" -malloc_limit_mb="$RSS_MB" \
       -print_final_stats=1 -artifact_prefix="$findings/" "${dict[@]}" \
-      "$work" "$ROOT/tests/fuzz/corpus/$t" "$ROOT/tests/fuzz/regressions/$t" >"$log" 2>&1
+      "$work" "${seeds[@]}" >"$log" 2>&1
   echo $? >"$log.rc"
 }
 export -f run_one

@@ -265,6 +265,8 @@ class Localizer {
   std::vector<Eigen::Vector3f> scan_;              // the scan between register_at and fuse
 
   Uncertainty grow(double t, const Prediction& p) const;
+  // The ROI maps from `provider`'s tiles round `center`.
+  void load_maps(const Eigen::Vector2d& center, const TileProvider& provider);
   void set_anchor(double t, const Uncertainty& u, bool velocity_known, double speed);
   // From the next scan on, search the relocalization reach round the last pose (at least u).
   void relocalize(double t, const Uncertainty& u);
@@ -276,7 +278,7 @@ class Localizer {
                        std::vector<registration::Candidate> alternatives) const;
 };
 
-// The scan's points as registration input (float, sensor frame).
-std::vector<Eigen::Vector3f> to_points(const Scan& scan);
+// The scan's points as registration input (float, sensor frame): pl/common/scan.hpp's.
+using pl::to_points;
 
 }  // namespace pl::client

@@ -2,6 +2,8 @@
 // uses: ring (beam) index, keeping every k-th beam, field-of-view and range crops.
 #pragma once
 
+#include <Eigen/Core>
+
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -13,6 +15,9 @@ struct PointXYZI {
   float x, y, z, intensity;
 };
 using Scan = std::vector<PointXYZI>;
+
+// The scan's points as registration input (float, sensor frame).
+std::vector<Eigen::Vector3f> to_points(const Scan& scan);
 
 // KITTI .bin: little-endian float32 x y z reflectance. Throws pl::Error naming the file: a size that
 // is not a whole number of points, a non-finite coordinate or reflectance.

@@ -59,5 +59,11 @@ class PlaceIndex {
 
 // The sensor's heading (yaw of its x axis) in a pose.
 double heading_of(const Eigen::Isometry3d& pose);
+// The rotation that levels a sensor at `pose`: its roll and pitch, its heading taken out.
+Eigen::Matrix3d levelling(const Eigen::Isometry3d& pose);
+// The descriptor of a scan (sensor frame) taken at `pose`, its points turned level: as places are
+// made and as scans are compared with them.
+PlaceDescriptor levelled_descriptor(const std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& pose,
+                                    const PlaceDescriptorConfig& cfg);
 
 }  // namespace pl::registration
