@@ -42,10 +42,7 @@ double registration_sigma(const registration::IcpResult& r, double independent) 
 }
 
 // How far b is turned from a about the vertical, radians (>= 0).
-double turn_between(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  const Eigen::Matrix3d d = a.linear().transpose() * b.linear();
-  return std::abs(std::atan2(d(1, 0), d(0, 0)));
-}
+double turn_between(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) { return std::abs(yaw_of(a.inverse() * b)); }
 
 // Poses distinctly different: farther apart than distinct_m, or turned more than distinct_deg.
 bool distinct(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const IntegrityConfig& c) {

@@ -128,9 +128,7 @@ Trajectory lidar_poses(const Dataset& ds, const GloamConfig& cfg, const std::vec
     degenerate += f.degenerate;
     if (cfg.loops && (i == 0 || is_new_keyframe(last_keyframe, f.pose, cfg.graph))) {
       last_keyframe = f.pose;
-      std::vector<Eigen::Vector3f> cloud;
-      for (const PointXYZI& p : prepare_scan(scan, {}, loop_prep)) cloud.emplace_back(p.x, p.y, p.z);
-      keyframe_clouds.push_back(std::move(cloud));
+      keyframe_clouds.push_back(to_points(prepare_scan(scan, {}, loop_prep)));
     }
     tell.progress("lidar odometry", i + 1, ds.size());
   }
