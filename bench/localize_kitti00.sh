@@ -2,7 +2,10 @@
 # The whole product on the real KITTI 00 trajectory (all 4,541 scans), simulated by pl-sim: the map
 # from the epoch-0 drive's ground-truth poses -> tiles -> pl-server -> pl-localize over HTTP with 16
 # of 64 beams and wheel-encoder odometry -> pl-eval ape. Three drives: the same epoch with 360 deg,
-# with 180 deg (the rear half blocked), and six months later (epoch 1) with 30 moving trucks.
+# with 180 deg (the rear half blocked), and six months later (epoch 1) with 30 moving trucks. Then the
+# rates of bench/localize_rates.sh on the epoch-0 drive: its odd scans on the map, LiDAR only, from the
+# first scan's pose with no velocity, every k-th for k = 1..4 (the drive at 1-4 times its speed).
+# The scans are swept over 0.1 s and carry per-laser calibration errors (pl-sim's defaults).
 #   bench/localize_kitti00.sh BIN_DIR WORK_DIR [FRAMES]
 set -euo pipefail
 bin=${1:?usage: bench/localize_kitti00.sh BIN_DIR WORK_DIR [FRAMES]}
@@ -78,3 +81,16 @@ run fov180 e0 --fov 180
 run epoch1-trucks e1
 kill -TERM $server && wait $server || true
 trap - EXIT
+
+echo
+echo "LiDAR only, the odd scans every k-th (pl-localize --db, 16 beams, --odometry lidar --init gt):"
+rates_drive=$work/$tag/e0 rates_db=$work/$tag/maps.sqlite rates_map=k00 rates_out=$work/$tag/rates
+mkdir -p "$rates_out"
+source "$root/bench/rates_run.sh"
+awk 'NR % 2 == 0' "$rates_drive/poses.txt" >"$rates_out/gt_odd.txt"
+echo "| run | scans | APE mean | median | max | > 0.5 m | of them ok | ok / degraded / lost | error > PL | PL median | ms median (odometry + registration + checks) |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|"
+for k in 1 2 3 4; do
+  awk -v k="$k" '(NR - 1) % k == 0' "$rates_out/gt_odd.txt" >"$rates_out/gt_$k.txt"
+  run "every $k" "$rates_out/gt_$k.txt" --every "$k"
+done

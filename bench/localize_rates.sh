@@ -18,35 +18,8 @@ k05_map localize_rates "$bin" "$work" || exit 0
 mkdir -p "$k05/rates"
 export PL_NO_PROGRESS=1 OMP_NUM_THREADS=1
 
-median() { sort -g | awk '{ a[NR] = $1 } END { if (NR % 2) print a[(NR + 1) / 2]; else print (a[NR / 2] + a[NR / 2 + 1]) / 2 }'; }
-
-# One run: pl-localize with the given arguments, then the per-scan errors joined with the status and
-# protection columns of its CSV (the KITTI output has one line per scan, as the ground truth given).
-run() {
-  local name=$1 gt=$2
-  shift 2
-  local out="$k05/rates/$name"
-  out=${out// /_}
-  out=${out//,/}
-  "$bin/pl-localize" --dataset "$drive" --db "${db:-$k05/maps.sqlite}" --map k05 --beams 16 --scans odd --odometry lidar \
-    --init gt --out "$out.tum" --kitti-out "$out.txt" --timing "$out.csv" "$@" >"$out.log"
-  # Per scan: error, protection level, registration ms, status.
-  awk '
-    FNR == 1 { file++ }
-    file == 1 { ex[FNR] = $4; ey[FNR] = $8; ez[FNR] = $12; n = FNR; next }
-    file == 2 { gx[FNR] = $4; gy[FNR] = $8; gz[FNR] = $12; next }
-    { split($0, f, ",") }
-    FNR == 1 { for (i = 1; i in f; i++) col[f[i]] = i; next }
-    { k = FNR - 1; h = (ex[k] - gx[k]) ^ 2 + (ey[k] - gy[k]) ^ 2
-      printf "%.4f %s %s %s %.4f\n", sqrt(h + (ez[k] - gz[k]) ^ 2), f[col["protection_m"]], f[col["registration_ms"]] + f[col["odometry_ms"]] + f[col["integrity_ms"]], f[col["status"]],
-        sqrt(h) }' "$out.txt" "$gt" "$out.csv" >"$out.scans"
-  local summary
-  summary=$(awk '{ n++; s += $1; if ($1 > m) m = $1; if ($1 > 0.5) { far++; if ($4 == "ok") lie++ }
-                   if ($5 > $2) v++; ok += $4 == "ok"; dg += $4 == "degraded"; ls += $4 == "lost" }
-                 END { printf "%d | %.3f | %%s | %.2f | %d | %d | %d / %d / %d | %.1f %%%%", n, s / n, m, far, lie, ok, dg, ls, 100 * v / n }' "$out.scans")
-  printf "| %s | $summary | %.2f | %.1f |\n" "$name" "$(cut -d' ' -f1 "$out.scans" | median)" "$(cut -d' ' -f2 "$out.scans" | median)" \
-    "$(cut -d' ' -f3 "$out.scans" | median)"
-}
+rates_drive=$drive rates_db=$k05/maps.sqlite rates_map=k05 rates_out=$k05/rates
+source "$(dirname "$0")/rates_run.sh"
 
 echo "| run | scans | APE mean | median | max | > 0.5 m | of them ok | ok / degraded / lost | error > PL | PL median | ms median (odometry + registration + checks) |"
 echo "|---|---|---|---|---|---|---|---|---|---|---|"

@@ -32,6 +32,10 @@ else
 fi
 
 echo
+echo "== sim_vs_real: drive 0005 beside pl-sim on the same trajectory and protocol"
+bash "$(dirname "$0")/sim_vs_real.sh" "$bin" "$root/build/bench"
+
+echo
 echo "== localize_rates: drive 0005 at 1-4x speed, LiDAR only, and a kidnapping"
 bash "$(dirname "$0")/localize_rates.sh" "$bin" "$root/build/bench"
 

@@ -95,8 +95,8 @@ int main(int argc, char** argv) {
               cli::above(0));
   std::string lidar_odometry = "on", deskew = "auto";
   cli::choice(app, "--deskew", deskew, "correct each scan for the motion during its sweep with the predicted motion, each point "
-              "timed by its azimuth (auto: off; on KITTI raw it did not help, see docs/pl-localize.md; use on with a map "
-              "built with pl-map build --deskew on)", {"auto", "on", "off"});
+              "timed by its azimuth (auto: on when the drive has point_times/, as pl-sim's; off otherwise: on KITTI raw it "
+              "did not help, see docs/pl-localize.md; use on with a map built with pl-map build --deskew on)", {"auto", "on", "off"});
   cli::choice(app, "--lidar-odometry", lidar_odometry, "LiDAR odometry where no other odometry covers the motion", {"on", "off"});
   cli::choice(app, "--scans", scans, "which scans", {"all", "even", "odd"});
   cli::number(app, "--every", every, "keep every k-th of those scans (the same drive k times faster)", cli::between(1, 1000));
@@ -163,7 +163,8 @@ int main(int argc, char** argv) {
     }
     if (!replay.time_shift.empty() && replay.odometry != pl::client::OdometrySource::None)
       throw Error("--cut-clock close needs --odometry lidar (the odometry's own clock cannot be closed over the cut)");
-    lc.compensate_motion = deskew == "on";
+    // auto: on for scans that carry their points' times (the sensor says it sweeps), off otherwise.
+    lc.compensate_motion = deskew == "on" || (deskew == "auto" && !ds.point_times_dir.empty());
     if (ds.meta.sensor.rate_hz > 0) lc.sweep_s = 1.0 / ds.meta.sensor.rate_hz;
     choose_start(ds, init.empty() ? (ds.gps.empty() ? "gt" : "gps") : init, init_search == "on", cfg, replay);
     if (db.empty()) cfg.tiles.server = server;

@@ -70,8 +70,8 @@ void add_build(Tool& tool) {
   pl::cli::output_file(c, "--report", s->report, "write JSON: keyframes, GPS edges and outliers, GPS residuals, loops proposed/"
                        "accepted/rejected (and why), the mean error against ground truth before and after the graph, times");
   pl::cli::choice(c, "--deskew", s->deskew, "correct each scan for the motion during the sweep, timed by azimuth (auto: the LiDAR "
-                  "odometry's features for recordings without meta.json; the merged map only with on, as on KITTI raw it "
-                  "did not help)", {"auto", "on", "off"});
+                  "odometry's features for recordings without meta.json, and everything for drives with point_times/ "
+                  "such as pl-sim's; the merged map of a KITTI raw drive only with on, as there it did not help)", {"auto", "on", "off"});
   pl::cli::number(c, "--voxel", merge.voxel_m, "voxel side of the map, metres", pl::cli::above(0));
   pl::cli::number(c, "--every", merge.every, "merge every N-th scan (the odometry still uses them all)", pl::cli::at_least(1));
   pl::cli::number(c, "--min-range", merge.scan.min_range_m, "returns closer than this are not merged, metres", pl::cli::at_least(0));

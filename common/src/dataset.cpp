@@ -31,6 +31,17 @@ Scan Dataset::load_scan(std::size_t i) const {
   return read_kitti_bin(scan_paths[i]);
 }
 
+std::vector<float> Dataset::load_point_times(std::size_t i, std::size_t points) const {
+  if (i >= scan_paths.size()) throw Error("scan index " + std::to_string(i) + " out of range (dataset has " + std::to_string(scan_paths.size()) + " scans)");
+  if (point_times_dir.empty()) return {};
+  const std::string& scan = scan_paths[i];
+  const std::string path = point_times_dir + "/" + scan.substr(scan.find_last_of('/') + 1);
+  if (!file_exists(path))
+    throw Error(path + ": missing: " + point_times_dir + " holds per-point times, one file per scan named as the scan "
+                "(add it, or remove the folder to use the points' azimuths)");
+  return read_point_times(path, points);
+}
+
 std::vector<std::uint16_t> Dataset::rings(const Scan& scan) const {
   if (meta.sensor.point_order == "laser-by-laser") return rings_from_azimuth(scan);
   return rings_from_elevation(scan, meta.sensor.vertical_angles_deg);
@@ -361,6 +372,10 @@ Dataset open_dataset(const std::string& dir_in) {
     }
   }
 
+  if (dir_exists(ds.dir + "/point_times")) {
+    ds.point_times_dir = ds.dir + "/point_times";
+    ds.sidecars.push_back("point_times/");
+  }
   std::string gps_path = ds.dir + "/gps.csv";
   if (file_exists(gps_path)) {  // a sidecar replaces the OXTS stream (e.g. a degraded receiver)
     ds.gps.clear();

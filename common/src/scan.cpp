@@ -78,6 +78,48 @@ void write_kitti_bin(const std::string& path, const Scan& scan) {
 
 namespace {
 
+Error times_size_error(std::size_t size, std::size_t points, const std::string& name) {
+  return Error(name + ": " + std::to_string(size) + " bytes for the times of " + std::to_string(points) +
+               " points (expected float32 seconds, 4 bytes a point, as many as the scan has points)");
+}
+
+}  // namespace
+
+std::vector<float> parse_point_times(std::string_view bytes, const std::string& name, std::size_t points) {
+  if (bytes.size() != points * sizeof(float)) throw times_size_error(bytes.size(), points, name);
+  std::vector<float> times(points);
+  if (points) std::memcpy(times.data(), bytes.data(), bytes.size());
+  for (std::size_t i = 0; i < times.size(); ++i)
+    if (!(std::abs(times[i]) < 1.0f))
+      throw Error(name + ": point " + std::to_string(i) + "'s time " + std::to_string(times[i]) +
+                  " is not within a second of the scan's time (seconds from the scan's time are expected)");
+  return times;
+}
+
+std::vector<float> read_point_times(const std::string& path, std::size_t points) {
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!f) throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
+  struct stat st {};
+  if (::fstat(::fileno(f.get()), &st) != 0 || !S_ISREG(st.st_mode)) throw Error(path + ": not a regular file");
+  // At most the expected size is read: a longer file is refused by its size, not read whole.
+  const auto size = static_cast<std::size_t>(st.st_size);
+  if (size != points * sizeof(float)) throw times_size_error(size, points, path);
+  std::string bytes(size, '\0');
+  if (size && std::fread(bytes.data(), 1, size, f.get()) != size)
+    throw Error(path + ": read failed (" + (std::ferror(f.get()) ? std::strerror(errno) : "the file got shorter") + ")");
+  return parse_point_times(bytes, path, points);
+}
+
+void write_point_times(const std::string& path, const std::vector<float>& times) {
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
+  if (!f) throw Error(path + ": cannot write (" + std::strerror(errno) + ")");
+  if (!times.empty() && std::fwrite(times.data(), sizeof(float), times.size(), f.get()) != times.size())
+    throw Error(path + ": write failed (disk full?)");
+  if (std::fclose(f.release()) != 0) throw Error(path + ": write failed (disk full?)");
+}
+
+namespace {
+
 // A monotonic stand-in for the azimuth, counter-clockwise from straight ahead: 0 ahead, 1 left,
 // 2 behind, 3 right, up to 4 (one division, no atan2).
 inline float pseudo_azimuth(float x, float y) {

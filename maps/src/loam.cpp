@@ -375,10 +375,15 @@ LoamFrame LoamOdometry::add(const Scan& scan, const std::vector<std::uint16_t>& 
   LoamFrame out;
   out.pose = m.predict(t);
 
-  if (cfg.deskew && m.scans > 0) {
-    // Motion over one sweep from the prediction, applied to each feature at its own time.
-    const double dt = t - m.t_last;
-    const Pose sweep = scale_motion(m.last.inverse() * out.pose, dt > 0 ? cfg.scan_period_s / dt : 0.0);
+  // Motion over one sweep from the motion since the last scan (at constant velocity), applied to
+  // each feature at its own time.
+  const double dt = t - m.t_last;
+  const auto sweep_of = [&](const Pose& pose) { return scale_motion(m.last.inverse() * pose, dt > 0 ? cfg.scan_period_s / dt : 0.0); };
+  const bool deskew = cfg.deskew && m.scans > 0;
+  const LoamFeatures raw = deskew ? f : LoamFeatures{};
+  Pose sweep = Pose::Identity();
+  if (deskew) {
+    sweep = sweep_of(out.pose);  // from the prediction
     registration::compensate_motion(f.edges, sweep, f.edge_time);
     registration::compensate_motion(f.planes, sweep, f.plane_time);
   }
@@ -391,40 +396,60 @@ LoamFrame LoamOdometry::add(const Scan& scan, const std::vector<std::uint16_t>& 
     out.planes = static_cast<int>(f.planes.size());
     out.degenerate = f.edges.size() + f.planes.size() < static_cast<std::size_t>(cfg.min_correspondences);
   } else {
-    Eigen::Matrix3d R = out.pose.linear();
-    Eigen::Vector3d tr = out.pose.translation() - m.anchor;
     const float k2 = static_cast<float>(cfg.kernel_m * cfg.kernel_m), max_res2 = static_cast<float>(cfg.max_residual_m * cfg.max_residual_m);
     bool degenerate = true, matched = false;
-    for (int outer = 0; outer < std::max(1, cfg.max_rematches); ++outer) {
-      auto [ne, np] = m.match(f, R.cast<float>(), tr.cast<float>());
-      out.edges = ne;
-      out.planes = np;
-      if (ne + np < cfg.min_correspondences) {
-        matched = false;
-        break;
+    // Gauss-Newton with re-matching from `start`; the solution in R, tr (relative to the anchor).
+    Eigen::Matrix3d R;
+    Eigen::Vector3d tr;
+    const auto solve = [&](const Pose& start) {
+      R = start.linear();
+      tr = start.translation() - m.anchor;
+      matched = false;
+      for (int outer = 0; outer < std::max(1, cfg.max_rematches); ++outer) {
+        auto [ne, np] = m.match(f, R.cast<float>(), tr.cast<float>());
+        out.edges = ne;
+        out.planes = np;
+        if (ne + np < cfg.min_correspondences) {
+          matched = false;
+          break;
+        }
+        matched = true;
+        const Eigen::Matrix3d R_before = R;
+        const Eigen::Vector3d t_before = tr;
+        for (int it = 0; it < std::max(1, cfg.iterations_per_match); ++it) {
+          registration::NormalEquations n = accumulate(m.matches, R.cast<float>(), tr.cast<float>(), k2, max_res2);
+          if (n.rows() < cfg.min_correspondences) break;
+          const Vec6 step = registration::solve_step_truncated(n.H(), n.g(), cfg.degenerate_ratio, degenerate);
+          if (!step.allFinite()) break;
+          R = rotation_from_vector(step.tail<3>()) * R;
+          tr += step.head<3>();
+          ++out.iterations;
+          if (step.head<3>().norm() < cfg.converged_m && step.tail<3>().norm() < cfg.converged_rad) break;
+        }
+        // Pairs found again after a move this small would be (nearly) the same: done.
+        const double moved = (tr - t_before).norm(), turned = Eigen::AngleAxisd(R * R_before.transpose()).angle();
+        if (moved < cfg.rematch_m && turned < cfg.rematch_rad) break;
       }
-      matched = true;
-      const Eigen::Matrix3d R_before = R;
-      const Eigen::Vector3d t_before = tr;
-      for (int it = 0; it < std::max(1, cfg.iterations_per_match); ++it) {
-        registration::NormalEquations n = accumulate(m.matches, R.cast<float>(), tr.cast<float>(), k2, max_res2);
-        if (n.rows() < cfg.min_correspondences) break;
-        const Vec6 step = registration::solve_step_truncated(n.H(), n.g(), cfg.degenerate_ratio, degenerate);
-        if (!step.allFinite()) break;
-        R = rotation_from_vector(step.tail<3>()) * R;
-        tr += step.head<3>();
-        ++out.iterations;
-        if (step.head<3>().norm() < cfg.converged_m && step.tail<3>().norm() < cfg.converged_rad) break;
+      Eigen::Quaterniond q(R);
+      q.normalize();
+      Pose p = Pose::Identity();
+      p.linear() = q.toRotationMatrix();
+      p.translation() = tr + m.anchor;
+      return p;
+    };
+    Pose solved = solve(out.pose);
+    // Where the motion changes (a turn begins or ends) the prediction's sweep is not the one the
+    // scan was taken over: deskew again with the motion the registration found, and solve from there.
+    if (deskew && matched) {
+      const Pose measured = sweep_of(solved);
+      const Pose change = sweep.inverse() * measured;
+      if (change.translation().norm() > cfg.redeskew_m || rotation_angle(change) > cfg.redeskew_deg * M_PI / 180.0) {
+        f = raw;
+        registration::compensate_motion(f.edges, measured, f.edge_time);
+        registration::compensate_motion(f.planes, measured, f.plane_time);
+        solved = solve(solved);
       }
-      // Pairs found again after a move this small would be (nearly) the same: done.
-      const double moved = (tr - t_before).norm(), turned = Eigen::AngleAxisd(R * R_before.transpose()).angle();
-      if (moved < cfg.rematch_m && turned < cfg.rematch_rad) break;
     }
-    Eigen::Quaterniond q(R);
-    q.normalize();
-    Pose solved = Pose::Identity();
-    solved.linear() = q.toRotationMatrix();
-    solved.translation() = tr + m.anchor;
     // Once the velocity is known, a solution far from the prediction is a wrong match (a view blocked
     // by a passing truck, say), not the vehicle's motion.
     if (matched && m.scans >= 2 && cfg.max_correction_m > 0) {

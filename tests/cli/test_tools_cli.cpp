@@ -31,7 +31,8 @@ std::string help_of(const std::string& command) {
 // The default --help shows for a flag ("--voxel FLOAT:(0,inf)=0.2" -> "0.2"); "" when it shows none.
 std::string default_of(const std::string& help, const std::string& flag) {
   std::smatch m;
-  const std::regex re("(^|\\s)" + flag + "( [^ =\\n]*)?(=(\\S+))?");
+  // The flag itself, not a longer one it begins (--lidar, not --lidar-poses).
+  const std::regex re("(^|\\s)" + flag + "(?![-\\w])( [^ =\\n]*)?(=(\\S+))?");
   if (!std::regex_search(help, m, re)) {
     ADD_FAILURE() << flag << " is not in the help:\n" << help;
     return "";
@@ -96,6 +97,9 @@ TEST(ToolsCli, PlSimHelpShowsTheConfigDefaults) {
   EXPECT_DOUBLE_EQ(number_default(help, "--map-spacing"), o.map_spacing);
   EXPECT_DOUBLE_EQ(number_default(help, "--threads"), o.threads);
   EXPECT_EQ(default_of(help, "--lidar"), o.lidar);
+  EXPECT_DOUBLE_EQ(number_default(help, "--speed-scale"), o.speed_scale);
+  EXPECT_DOUBLE_EQ(number_default(help, "--calibration-error"), o.calibration_error);
+  EXPECT_EQ(default_of(help, "--sweep"), o.sweep ? "on" : "off");
   std::istringstream origin(default_of(help, "--origin"));
   double lat = 0, lon = 0, alt = 0;
   char c1 = 0, c2 = 0;

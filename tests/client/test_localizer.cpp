@@ -156,10 +156,11 @@ TEST(Localizer, StartsFiveMetresAndThirtyDegreesOff) {
 
 // --- end to end: pl-sim -> pl-map -> pl-server -> pl-localize -> pl-eval ---------------------------
 
-// A short simulated drive and its map store, made once per build tree (tests run as separate
+// A short simulated drive and its map store, made once per build tree (v2: swept scans with
+// calibration errors, a map merged with the sweep corrected) (tests run as separate
 // processes, possibly in parallel: made in a temporary folder, then renamed into place).
 std::string drive_and_map() {
-  const std::string dir = std::string(PL_BINARY_DIR) + "/test-data/localizer-drive-v1";
+  const std::string dir = std::string(PL_BINARY_DIR) + "/test-data/localizer-drive-v2";
   if (std::filesystem::exists(dir + "/done")) return dir;
   pl::test::TempDir tmp;
   const std::string d = tmp / "d";

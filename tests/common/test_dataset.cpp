@@ -9,6 +9,7 @@
 
 #include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
+#include "error_of.hpp"
 #include "test_util.hpp"
 
 using pl::test::TempDir;
@@ -161,6 +162,31 @@ TEST(Dataset, SidecarsAreRead) {
   // Rings come from the table when the points are in any order.
   pl::Scan s = {{10.f, 0.f, 10.f * std::tan(3.0f * float(M_PI) / 180.f), 0.f}};
   EXPECT_EQ(ds.rings(s)[0], 3);  // +3 deg is the fourth entry of the table
+}
+
+TEST(Dataset, PointTimesAreReadAndCheckedAgainstTheirScan) {
+  TempDir dir;
+  std::filesystem::create_directories(dir / "velodyne");
+  pl::write_kitti_bin(dir / "velodyne/000000.bin", small_scan(0));
+  pl::write_kitti_bin(dir / "velodyne/000001.bin", small_scan(1));
+  write_file(dir / "times.txt", "0\n0.1\n");
+  EXPECT_TRUE(pl::open_dataset(dir.path()).point_times_dir.empty());
+  EXPECT_TRUE(pl::open_dataset(dir.path()).load_point_times(0, 2).empty());
+  std::filesystem::create_directories(dir / "point_times");
+  pl::write_point_times(dir / "point_times/000000.bin", {-0.05f, 0.025f});
+  const pl::Dataset ds = pl::open_dataset(dir.path());
+  EXPECT_EQ(ds.sidecars.back(), "point_times/");
+  const std::vector<float> t = ds.load_point_times(0, 2);
+  ASSERT_EQ(t.size(), 2u);
+  EXPECT_EQ(t[0], -0.05f);
+  EXPECT_EQ(t[1], 0.025f);
+  // One scan without its file, a count that is not the scan's, a time that is not within the sweep.
+  EXPECT_TRUE(contains(pl::test::error_of([&] { ds.load_point_times(1, 2); }), "point_times/000001.bin: missing"));
+  EXPECT_TRUE(contains(pl::test::error_of([&] { ds.load_point_times(0, 3); }), "000000.bin: 8 bytes for the times of 3 points"));
+  pl::write_point_times(dir / "point_times/000001.bin", {0.0f, 2.5f});
+  EXPECT_TRUE(contains(pl::test::error_of([&] { ds.load_point_times(1, 2); }), "point 1's time 2.5"));
+  pl::write_point_times(dir / "point_times/000001.bin", {0.0f, NAN});
+  EXPECT_TRUE(contains(pl::test::error_of([&] { ds.load_point_times(1, 2); }), "is not within a second"));
 }
 
 TEST(Dataset, SidecarErrorsNameFileLineAndFix) {

@@ -33,7 +33,10 @@ TEST(GloamKitti00, PrefixMeetsTheMappingTargets) {
   if (!std::filesystem::exists(kTrajectory)) GTEST_SKIP() << "no KITTI 00 trajectory at " << kTrajectory;
   const pl::test::TempDir dir;
   const std::string d = dir / "k00";
-  sh(pl::test::tool("pl-sim") + " --trajectory " + kTrajectory + " --frames 250 --seed 1 --out " + d +
+  // The first simulator's sensor (one pose a scan, perfectly calibrated), on which these targets were
+  // set: with per-laser calibration errors no map is 95 % within 5 cm of the true surfaces (a 0.12 deg
+  // elevation error alone is 6 cm at 30 m); bench/gloam_kitti00.sh measures the realistic sensor.
+  sh(pl::test::tool("pl-sim") + " --trajectory " + kTrajectory + " --frames 250 --seed 1 --sweep off --calibration-error 0 --out " + d +
      " --map-out " + (dir / "reference.pcd") + " --map-spacing 0.1");
   const std::string build = pl::test::tool("pl-map") + " build --dataset " + d + " --poses lidar";
   sh(build + " --out " + (dir / "lidar.pcd") + " --traj-out " + (dir / "lidar.txt"));

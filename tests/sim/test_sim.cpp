@@ -18,17 +18,20 @@ using pl::test::TempDir;
 
 namespace {
 
-// A straight street: ground, a wall 10 m to the left, and the ego LiDAR 1.73 m up.
-Scene street() {
+// Flat asphalt ground 200 m square and one concrete wall (a box): the ego LiDAR stands 1.73 m up.
+Scene ground_and_wall(const Eigen::Vector3f& wall_centre, const Eigen::Vector3f& wall_half) {
   Scene s;
   std::vector<Primitive> prims;
   prims.push_back(make_triangle({-100, -100, 0}, {100, -100, 0}, {100, 100, 0}, 0));
   prims.push_back(make_triangle({-100, -100, 0}, {100, 100, 0}, {-100, 100, 0}, 0));
-  prims.push_back(make_box({0, 10.25f, 5}, {60, 0.25f, 5}, 0, 1));
+  prims.push_back(make_box(wall_centre, wall_half, 0, 1));
   s.info = {{0, Material::Asphalt}, {0, Material::Concrete}};
   s.bvh = Bvh(std::move(prims));
   return s;
 }
+
+// A straight street: a wall 10 m to the left.
+Scene street() { return ground_and_wall({0, 10.25f, 5}, {60, 0.25f, 5}); }
 
 const SimTrajectory& loop() {
   static SimTrajectory t = builtin_route("loop");
@@ -90,6 +93,105 @@ TEST(SimLidar, HalfFieldOfViewBlocksTheRear) {
   pl::Scan scan = cast_scan(h, pl::make_pose(0, 0, 1.73), s, nullptr, rng);
   ASSERT_GT(scan.size(), 1000u);
   for (const auto& p : scan) EXPECT_GE(p.x, -1e-3f);
+}
+
+// A wall across the road 20 m ahead (x = 20).
+Scene wall_ahead() { return ground_and_wall({20.25f, 0, 5}, {0.25f, 40, 5}); }
+
+TEST(SimLidar, SweepDistortsTheScanByTheMotionAndTimesEachPoint) {
+  Scene s = wall_ahead();
+  LidarModel h = lidar_model("vlp16");
+  h.range_noise = 0.0;
+  // 20 m/s forward: over the 0.1 s sweep the sensor moves 2 m.
+  const auto at = [](double share) { return pl::make_pose(2.0 * share, 0, 1.73); };
+  std::mt19937_64 rng(5);
+  std::vector<float> shares;
+  const pl::Scan swept = cast_sweep(h, at, s, nullptr, rng, &shares);
+  ASSERT_EQ(shares.size(), swept.size());
+  std::size_t wall = 0;
+  double left = 0, right = 0;
+  std::size_t n_left = 0, n_right = 0;
+  for (std::size_t i = 0; i < swept.size(); ++i) {
+    const auto& p = swept[i];
+    // The share is the firing's azimuth: a clockwise turn timed facing ahead.
+    EXPECT_NEAR(shares[i], -std::atan2(p.y, p.x) / (2 * M_PI), 2e-3) << i;
+    if (p.x < 15 || p.z < -1.0f) continue;  // the wall's points only
+    ++wall;
+    // Written in the frame of its own firing: back in the world through that pose it lies on the wall.
+    const Eigen::Vector3d w = at(shares[i]) * Eigen::Vector3d(p.x, p.y, p.z);
+    EXPECT_NEAR(w.x(), 20.0, 0.01) << i;
+    (p.y > 0 ? left : right) += p.x;
+    ++(p.y > 0 ? n_left : n_right);
+  }
+  ASSERT_GT(wall, 500u);
+  ASSERT_GT(n_left, 100u);
+  ASSERT_GT(n_right, 100u);
+  // The left half is fired before the scan's time (the sensor further back), the right half after:
+  // the wall reads farther on the left than on the right, by up to the 2 m the sensor moved.
+  EXPECT_GT(left / n_left - right / n_right, 0.25);
+  // From one pose the two halves agree.
+  std::mt19937_64 rng2(5);
+  const pl::Scan still = cast_scan(h, at(0.0), s, nullptr, rng2);
+  double l = 0, r = 0;
+  std::size_t nl = 0, nr = 0;
+  for (const auto& p : still) {
+    if (p.x < 15 || p.z < -1.0f) continue;
+    (p.y > 0 ? l : r) += p.x;
+    ++(p.y > 0 ? nl : nr);
+  }
+  ASSERT_GT(nl, 100u);
+  ASSERT_GT(nr, 100u);
+  EXPECT_NEAR(l / nl - r / nr, 0.0, 0.05);
+}
+
+TEST(SimLidar, CalibrationErrorsStayInTheData) {
+  // Drawn per laser, reproducible, of the stated size, none at scale 0.
+  const auto e = draw_laser_errors(64, 1.0, 7);
+  ASSERT_EQ(e.size(), 64u);
+  std::vector<double> el, az, range;
+  for (const auto& l : e) el.push_back(l.elevation_deg), az.push_back(l.azimuth_deg), range.push_back(l.range_m);
+  const auto sigma = [](const std::vector<double>& v) {
+    double s2 = 0;
+    for (double x : v) s2 += x * x;
+    return std::sqrt(s2 / static_cast<double>(v.size()));
+  };
+  EXPECT_NEAR(sigma(el), 0.12, 0.05);
+  EXPECT_NEAR(sigma(az), 0.12, 0.05);
+  EXPECT_NEAR(sigma(range), 0.02, 0.008);
+  EXPECT_EQ(draw_laser_errors(64, 1.0, 7)[9].azimuth_deg, e[9].azimuth_deg);
+  EXPECT_NE(draw_laser_errors(64, 1.0, 8)[9].azimuth_deg, e[9].azimuth_deg);
+  for (const auto& l : draw_laser_errors(64, 0.0, 7)) EXPECT_EQ(l.elevation_deg + l.azimuth_deg + l.range_m, 0.0);
+
+  // A laser whose ranges read 10 cm long and one pointing 0.5 deg higher than its table says: the
+  // wall 10 m to the left reads 10 cm further, and the ground is seen nearer than the table expects.
+  Scene s = street();
+  LidarModel h = lidar_model("vlp16");
+  h.range_noise = 0.0;
+  h.dropout = 0.0;
+  h.laser_errors.assign(h.vertical_deg.size(), LaserError{});
+  h.laser_errors[3].range_m = 0.10;        // +9 deg: sees the wall
+  h.laser_errors[12].elevation_deg = 0.5;  // -9 deg: sees the ground at ~11 m
+  std::mt19937_64 rng(1);
+  const pl::Scan scan = cast_scan(h, pl::make_pose(0, 0, 1.73), s, nullptr, rng);
+  const auto rings = pl::rings_from_azimuth(scan);
+  std::vector<double> wall3, ground12, ground13;
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const auto& p = scan[i];
+    if (std::abs(p.x) < 1 && p.y > 5 && p.z > -1.0f && rings[i] == 3) wall3.push_back(p.y);
+    if (std::abs(p.y) < 2 && p.x > 0 && p.z < -1.0f && rings[i] == 12) ground12.push_back(p.z);
+    if (std::abs(p.y) < 2 && p.x > 0 && p.z < -1.0f && rings[i] == 13) ground13.push_back(p.z);
+  }
+  ASSERT_GT(wall3.size(), 3u);
+  ASSERT_GT(ground12.size(), 3u);
+  ASSERT_GT(ground13.size(), 3u);
+  EXPECT_NEAR(pl::median(wall3), 10.0 + 0.10 * std::cos(9.0 * M_PI / 180), 0.01);
+  EXPECT_NEAR(pl::median(ground13), -1.73, 0.01);
+  // Ray at -8.5 deg meets the ground at 11.6 m; the point is written along -9 deg: 1.82 m down.
+  const double range12 = 1.73 / std::sin(8.5 * M_PI / 180);
+  EXPECT_NEAR(pl::median(ground12), -range12 * std::sin(9.0 * M_PI / 180), 0.02);
+  EXPECT_LT(pl::median(ground12), -1.78);
+  h.laser_errors.resize(3);
+  EXPECT_THROW(cast_scan(h, pl::make_pose(0, 0, 1.73), s, nullptr, rng), pl::Error);
 }
 
 TEST(SimEncoder, IntegratesBackToTheGroundTruth) {
@@ -206,20 +308,27 @@ TEST(SimWorld, SameSeedSameWorldOtherSeedOtherWorld) {
   EXPECT_TRUE(differs);
 }
 
-TEST(SimDrive, SameSeedSameBytesWhateverTheThreads) {
-  TempDir dir;
+// The first `frames` scans of the town loop with a VLP-16, into `out`.
+SimOptions loop_drive(long long frames, const std::string& out) {
   SimOptions o;
   o.route = "loop";
-  o.frames = 4;
+  o.frames = frames;
   o.lidar = "vlp16";
+  o.out_dir = out;
+  return o;
+}
+
+TEST(SimDrive, SameSeedSameBytesWhateverTheThreads) {
+  TempDir dir;
+  SimOptions o = loop_drive(4, dir / "a");
   o.traffic.count = 6;
-  o.out_dir = dir / "a";
   o.threads = 1;
   simulate(o);
   o.out_dir = dir / "b";
   o.threads = 3;
   simulate(o);
-  for (const char* f : {"velodyne/000000.bin", "velodyne/000003.bin", "poses.txt", "times.txt", "encoder.csv", "gps.csv", "meta.json"})
+  for (const char* f : {"velodyne/000000.bin", "velodyne/000003.bin", "point_times/000003.bin", "poses.txt", "times.txt",
+                        "encoder.csv", "gps.csv", "meta.json"})
     EXPECT_EQ(pl::test::read_file(dir / (std::string("a/") + f)), pl::test::read_file(dir / (std::string("b/") + f))) << f;
   o.out_dir = dir / "c";
   o.world.seed = 2;
@@ -233,10 +342,40 @@ TEST(SimDrive, SameSeedSameBytesWhateverTheThreads) {
   EXPECT_FALSE(ds.encoder.empty());
   EXPECT_FALSE(ds.gps.empty());
   ASSERT_TRUE(ds.meta.origin.has_value());
+  // Each point's time, as a driver gives it: within the 0.1 s sweep, from the azimuth.
+  ASSERT_FALSE(ds.point_times_dir.empty());
+  const pl::Scan scan = ds.load_scan(2);
+  const std::vector<float> times = ds.load_point_times(2, scan.size());
+  ASSERT_EQ(times.size(), scan.size());
+  for (std::size_t i = 0; i < scan.size(); i += 97)
+    EXPECT_NEAR(times[i], -0.1 * std::atan2(scan[i].y, scan[i].x) / (2 * M_PI), 0.002) << i;
   // An existing dataset is not overwritten without --force.
   EXPECT_THROW(simulate(o), pl::Error);
   o.force = true;
   EXPECT_NO_THROW(simulate(o));
+}
+
+TEST(SimDrive, SpeedScaleDrivesTheRouteFasterAtTheSameScanRate) {
+  TempDir dir;
+  SimOptions o = loop_drive(6, dir / "slow");
+  const SimReport slow = simulate(o);
+  o.out_dir = dir / "fast";
+  o.speed_scale = 3.0;
+  const SimReport fast = simulate(o);
+  EXPECT_NEAR(fast.max_speed_mps, 3.0 * slow.max_speed_mps, 1e-6 * slow.max_speed_mps);
+  EXPECT_GT(fast.max_speed_mps, 25.0);  // the loop's 9 m/s straights at 27 m/s
+  const pl::Dataset a = pl::open_dataset(dir / "slow"), b = pl::open_dataset(dir / "fast");
+  ASSERT_EQ(a.size(), 6u);
+  ASSERT_EQ(b.size(), 6u);
+  for (std::size_t i = 1; i < 6; ++i) {
+    EXPECT_NEAR(b.times[i] - b.times[i - 1], 0.1, 1e-6);
+    const double da = (a.ground_truth.poses[i].translation() - a.ground_truth.poses[i - 1].translation()).norm();
+    const double db = (b.ground_truth.poses[i].translation() - b.ground_truth.poses[i - 1].translation()).norm();
+    EXPECT_NEAR(db, 3.0 * da, 0.02 * da) << i;
+  }
+  o.speed_scale = 0.0;
+  o.out_dir = dir / "none";
+  EXPECT_THROW(simulate(o), pl::Error);
 }
 
 TEST(SimDrive, CommandLine) {

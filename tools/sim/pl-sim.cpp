@@ -21,6 +21,9 @@ int main(int argc, char** argv) {
   app.add_option("--trajectory", o.trajectory_path, "a KITTI pose file (cam0 poses, e.g. kitti-trajectories/00.txt); its "
                  "times from --times, else times-NN.txt or times.txt beside it, else 10 Hz")->type_name("FILE");
   app.add_option("--times", o.times_path, "the times of --trajectory")->type_name("FILE");
+  app.add_flag("--lidar-poses", o.lidar_poses, "--trajectory holds LiDAR poses (e.g. from pl-dataset poses), not KITTI cam0 poses");
+  pl::cli::number(app, "--speed-scale", o.speed_scale, "drive the route this many times as fast, scans still at 10 Hz "
+                  "(the town loop's 9 m/s straights at 30 m/s: 3.3)", pl::cli::between(0.1, 10));
   pl::cli::output_folder(app, "--out", o.out_dir, "where to write the dataset")->required();
   pl::cli::number(app, "--frames", o.frames, "scans to write; 0: the whole route", pl::cli::at_least(0));
   pl::cli::number(app, "--seed", o.world.seed, "world and noise seed; same seed and options, same bytes", pl::cli::at_least(0));
@@ -32,6 +35,11 @@ int main(int argc, char** argv) {
                   pl::cli::between(0, 1));
   pl::cli::number(app, "--pedestrian-share", o.traffic.pedestrian_share, "share of the traffic on foot", pl::cli::between(0, 1));
   pl::cli::choice(app, "--lidar", o.lidar, "the sensor", {"hdl64", "vlp16", "rs16"});
+  std::string sweep = "on";
+  pl::cli::choice(app, "--sweep", sweep, "on: each scan swept over 0.1 s while the vehicle moves, per-point times written to "
+                  "point_times/ (as drivers give them); off: every ray from one pose", {"on", "off"});
+  pl::cli::number(app, "--calibration-error", o.calibration_error, "per-laser elevation, azimuth and range errors like a "
+                  "calibrated HDL-64E's (0.12 deg, 0.12 deg, 2 cm sigma), times this; 0: a perfect sensor", pl::cli::between(0, 10));
   pl::cli::number(app, "--fov", o.fov_deg, "180: the rear half is blocked by the vehicle body (360 or 180)", pl::cli::between(180, 360));
   app.add_option("--gnss-profile", o.gnss_profile, "replay a real receiver's accuracy, status and satellites (KITTI OXTS folder)")
       ->type_name("DIR");
@@ -45,6 +53,8 @@ int main(int argc, char** argv) {
 
   tool.body([&] {
     if (route.empty() == o.trajectory_path.empty()) throw pl::Error("give either --route loop|estate or --trajectory FILE");
+    o.sweep = sweep == "on";
+    if (o.lidar_poses && o.trajectory_path.empty()) throw pl::Error("--lidar-poses goes with --trajectory FILE");
     if (!route.empty()) {
       o.route = route;
       o.world.preset = route == "estate" ? "estate" : "town";
@@ -55,10 +65,11 @@ int main(int argc, char** argv) {
     const pl::sim::SimReport r = pl::sim::simulate(o);
     std::printf("wrote %zu scans to %s in %.1f s (%.1f scans/s, %d threads)\n", r.frames, o.out_dir.c_str(), r.seconds,
                 r.frames / std::max(r.seconds, 1e-9), r.threads);
-    std::printf("  route %.0f m over %.1f s; world: %zu objects (%zu movable), epoch %d, %s\n", r.length_m, r.duration_s,
-                r.objects, r.movable, o.world.epoch, o.world.preset.c_str());
-    std::printf("  points a scan: min %zu, median %.0f, max %zu (%s, %.0f deg)\n", r.points_min, r.points_median, r.points_max,
-                o.lidar.c_str(), o.fov_deg);
+    std::printf("  route %.0f m over %.1f s, up to %.1f m/s; world: %zu objects (%zu movable), epoch %d, %s\n", r.length_m, r.duration_s,
+                r.max_speed_mps, r.objects, r.movable, o.world.epoch, o.world.preset.c_str());
+    std::printf("  points a scan: min %zu, median %.0f, max %zu (%s, %.0f deg, %s, calibration errors x%g)\n", r.points_min,
+                r.points_median, r.points_max, o.lidar.c_str(), o.fov_deg, o.sweep ? "swept over 0.1 s" : "one pose a scan",
+                o.calibration_error);
     std::printf("  encoder: %zu samples at 100 Hz; gps: %zu fixes (%s)\n", r.encoder_samples, r.gps_fixes, r.gps_mix.c_str());
     if (o.traffic.count) std::printf("  traffic: %d agents\n", o.traffic.count);
     if (!o.preview.empty()) std::printf("  preview: %s\n", o.preview.c_str());

@@ -39,33 +39,69 @@ inline float uniform01(std::mt19937_64& rng) { return static_cast<float>(rng() >
 
 }  // namespace
 
+std::vector<LaserError> draw_laser_errors(std::size_t lasers, double scale, std::uint64_t seed) {
+  std::vector<LaserError> e(lasers);
+  if (!(scale > 0)) return e;
+  std::mt19937_64 rng(seed * 0xD1B54A32D192ED03ull + 0x1CE);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (LaserError& l : e) {
+    l.elevation_deg = scale * 0.12 * n(rng);
+    l.azimuth_deg = scale * 0.12 * n(rng);
+    l.range_m = scale * 0.02 * n(rng);
+  }
+  return e;
+}
+
 Scan cast_scan(const LidarModel& lidar, const Pose& sensor, const Scene& world, const Scene* moving, std::mt19937_64& rng) {
+  return cast_sweep(lidar, [&](double) { return sensor; }, world, moving, rng);
+}
+
+Scan cast_sweep(const LidarModel& lidar, const std::function<Pose(double share)>& sensor_at, const Scene& world,
+                const Scene* moving, std::mt19937_64& rng, std::vector<float>* shares) {
   const int rings = static_cast<int>(lidar.vertical_deg.size());
   const int steps = lidar.azimuth_steps;
   const double step = 2.0 * M_PI / steps;
   const double half_fov = lidar.fov_deg >= 360.0 ? M_PI + 1.0 : lidar.fov_deg * M_PI / 360.0;
-  const Eigen::Matrix3f rot = sensor.linear().cast<float>();
-  const Eigen::Vector3f origin = sensor.translation().cast<float>();
   const float max_range = static_cast<float>(lidar.max_range), min_range = static_cast<float>(lidar.min_range);
+  if (!lidar.laser_errors.empty() && lidar.laser_errors.size() != lidar.vertical_deg.size())
+    throw Error("cast_sweep: " + std::to_string(lidar.laser_errors.size()) + " laser errors for " + std::to_string(rings) + " lasers");
 
-  // Unit directions of one turn in the sensor frame (azimuth only; elevation per ring below).
-  std::vector<float> cos_az(steps), sin_az(steps);
+  // Per firing column: the nominal azimuth, whether it is in view, its share of the sweep and the
+  // sensor's pose at that moment.
+  std::vector<double> az(steps), share(steps);
   std::vector<bool> seen(steps);
+  std::vector<Eigen::Matrix3f> rot(steps);
+  std::vector<Eigen::Vector3f> origin(steps);
   for (int k = 0; k < steps; ++k) {
-    double az = (k + 0.5) * step;  // starts just left of straight ahead, counter-clockwise
-    cos_az[k] = static_cast<float>(std::cos(az));
-    sin_az[k] = static_cast<float>(std::sin(az));
-    seen[k] = std::abs(std::remainder(az, 2.0 * M_PI)) <= half_fov;
+    az[k] = (k + 0.5) * step;  // starts just left of straight ahead, counter-clockwise
+    const double a = std::remainder(az[k], 2.0 * M_PI);
+    seen[k] = std::abs(a) <= half_fov;
+    share[k] = -a / (2.0 * M_PI);
+    const Pose pose = sensor_at(share[k]);
+    rot[k] = pose.linear().cast<float>();
+    origin[k] = pose.translation().cast<float>();
   }
   Scan scan;
   scan.reserve(static_cast<std::size_t>(rings) * steps);
+  if (shares) {
+    shares->clear();
+    shares->reserve(scan.capacity());
+  }
   for (int r = 0; r < rings; ++r) {
-    double el = lidar.vertical_deg[r] * M_PI / 180.0;
-    float ce = static_cast<float>(std::cos(el)), se = static_cast<float>(std::sin(el));
+    const double el = lidar.vertical_deg[r] * M_PI / 180.0;
+    const LaserError err = lidar.laser_errors.empty() ? LaserError{} : lidar.laser_errors[r];
+    const double el_true = el + err.elevation_deg * M_PI / 180.0, daz = err.azimuth_deg * M_PI / 180.0;
+    const float ce = static_cast<float>(std::cos(el)), se = static_cast<float>(std::sin(el));
+    const float ct = static_cast<float>(std::cos(el_true)), st = static_cast<float>(std::sin(el_true));
+    const bool calibrated = err.elevation_deg == 0.0 && err.azimuth_deg == 0.0;
     for (int k = 0; k < steps; ++k) {
       if (!seen[k]) continue;
-      Eigen::Vector3f d_sensor(ce * cos_az[k], ce * sin_az[k], se);
-      Ray ray{origin, rot * d_sensor, max_range};
+      const float ca = static_cast<float>(std::cos(az[k])), sa = static_cast<float>(std::sin(az[k]));
+      const Eigen::Vector3f d_table(ce * ca, ce * sa, se);  // where the driver thinks the beam points
+      Eigen::Vector3f d_true = d_table;                     // where it does
+      if (!calibrated)
+        d_true = Eigen::Vector3f(ct * static_cast<float>(std::cos(az[k] + daz)), ct * static_cast<float>(std::sin(az[k] + daz)), st);
+      Ray ray{origin[k], rot[k] * d_true, max_range};
       Hit hit;
       const ShapeInfo* info = nullptr;
       if (world.bvh.intersect(ray, hit)) {
@@ -88,13 +124,14 @@ Scan cast_scan(const LidarModel& lidar, const Pose& sensor, const Scene& world, 
         if (drop < 0.12f) continue;
         noise += 0.05f * normal01(rng);
       }
-      float range = hit.t + noise;
-      if (range >= max_range) continue;
+      float range = hit.t + noise + static_cast<float>(err.range_m);
+      if (range >= max_range || range < min_range) continue;
       float incidence = std::abs(hit.normal.dot(ray.dir));
       float intensity = albedo(info->material) * (0.35f + 0.65f * incidence) + 0.02f * normal01(rng);
       intensity = std::min(1.0f, std::max(0.0f, intensity));
-      Eigen::Vector3f p = d_sensor * range;
+      Eigen::Vector3f p = d_table * range;
       scan.push_back({p.x(), p.y(), p.z(), intensity});
+      if (shares) shares->push_back(static_cast<float>(share[k]));
     }
   }
   return scan;

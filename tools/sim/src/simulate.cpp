@@ -25,20 +25,67 @@ namespace pl::sim {
 
 SimTrajectory load_trajectory(const SimOptions& o, std::vector<double>& scan_times) {
   scan_times.clear();
+  if (!(o.speed_scale > 0) || !std::isfinite(o.speed_scale)) throw Error("the speed scale must be a positive number");
+  SimTrajectory t;
   if (!o.route.empty()) {
-    SimTrajectory t = builtin_route(o.route);
-    for (double s = t.start_time(); s <= t.end_time() + 1e-9; s += 0.1) scan_times.push_back(s);
-    if (o.frames > 0) scan_times.resize(std::min<std::size_t>(scan_times.size(), static_cast<std::size_t>(o.frames)));
-    return t;
+    t = builtin_route(o.route);
+  } else {
+    std::string times = o.times_path.empty() ? find_times_for(o.trajectory_path) : o.times_path;
+    t = o.lidar_poses ? trajectory_from_lidar_poses(o.trajectory_path, times) : trajectory_from_kitti(o.trajectory_path, times);
   }
-  std::string times = o.times_path.empty() ? find_times_for(o.trajectory_path) : o.times_path;
-  SimTrajectory t = trajectory_from_kitti(o.trajectory_path, times);
-  scan_times = t.times();
+  if (!o.route.empty() || o.speed_scale != 1.0) {
+    // Scans every 0.1 s along the (re-timed) path; a pose file's own times when it is driven as recorded.
+    if (o.speed_scale != 1.0) t = t.retimed(o.speed_scale);
+    for (long long k = 0;; ++k) {
+      const double s = t.start_time() + 0.1 * static_cast<double>(k);
+      if (s > t.end_time() + 1e-9) break;
+      scan_times.push_back(s);
+    }
+  } else {
+    scan_times = t.times();
+  }
   if (o.frames > 0) scan_times.resize(std::min<std::size_t>(scan_times.size(), static_cast<std::size_t>(o.frames)));
   return t;
 }
 
 namespace {
+
+// The street goes on beyond a drive: the world is built along the path continued straight for
+// `beyond` metres before the first scan and after the last, so the first and last scans see a street
+// ahead and behind as a real drive does, not the end of the world (closed loops need none).
+SimTrajectory street_of(const SimTrajectory& path, double t0, double t1, double beyond) {
+  const Pose first = path.pose_at(t0), last = path.pose_at(t1);
+  if ((first.translation() - last.translation()).norm() < 30.0) return path;
+  std::vector<double> times;
+  std::vector<Pose, Eigen::aligned_allocator<Pose>> poses;
+  constexpr double kStep = 1.0, kSpeed = 10.0;  // metres between added poses; their (unused) speed
+  const auto along = [](const Pose& p, double d) {
+    Pose q = p;
+    Eigen::Vector3d fwd = p.linear().col(0);
+    fwd.z() = 0.0;
+    q.translation() += d * fwd.normalized();
+    return q;
+  };
+  for (double d = beyond; d > 0; d -= kStep) {
+    times.push_back(t0 - d / kSpeed);
+    poses.push_back(along(first, -d));
+  }
+  times.push_back(t0);
+  poses.push_back(first);
+  for (std::size_t i = 0; i < path.times().size(); ++i) {
+    const double t = path.times()[i];
+    if (t <= t0 || t >= t1) continue;
+    times.push_back(t);
+    poses.push_back(path.poses()[i]);
+  }
+  times.push_back(t1);
+  poses.push_back(last);
+  for (double d = kStep; d <= beyond; d += kStep) {
+    times.push_back(t1 + d / kSpeed);
+    poses.push_back(along(last, d));
+  }
+  return SimTrajectory(std::move(times), std::move(poses));
+}
 
 void write_lines(const std::string& path, const std::string& text) {
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "w"), &std::fclose);
@@ -55,6 +102,9 @@ SimReport simulate(const SimOptions& o) {
     throw Error(o.out_dir + ": exists and is not empty (choose another --out, or add --force to replace it)");
   LidarModel lidar = lidar_model(o.lidar);
   lidar.fov_deg = o.fov_deg;
+  if (!(o.calibration_error >= 0)) throw Error("the calibration error scale must be 0 or more");
+  // The sensor's own errors: one set per sensor (seed), the same in every epoch and drive of it.
+  lidar.laser_errors = draw_laser_errors(lidar.vertical_deg.size(), o.calibration_error, o.world.seed);
   GpsConfig gps_cfg = o.gps;
   if (!o.gnss_profile.empty()) gps_cfg.profile = read_gnss_profile(o.gnss_profile);
 
@@ -62,7 +112,8 @@ SimReport simulate(const SimOptions& o) {
   SimTrajectory traj = load_trajectory(o, scan_times);
   if (scan_times.size() < 2) throw Error("the drive needs at least two scans");
   const double t0 = scan_times.front(), t1 = scan_times.back();
-  World world = build_world(traj, t0, t1, o.world);
+  const SimTrajectory street = street_of(traj, t0, t1, 80.0);
+  World world = build_world(street, street.start_time(), street.end_time(), o.world);
   Scene scene;
   scene.bvh = Bvh(world.shapes(scene.info));
   TrafficConfig tcfg = o.traffic;
@@ -74,6 +125,8 @@ SimReport simulate(const SimOptions& o) {
   fs::path tmp = out.parent_path() / (out.filename().string() + ".partial");
   fs::remove_all(tmp);
   fs::create_directories(tmp / "velodyne");
+  if (o.sweep) fs::create_directories(tmp / "point_times");
+  constexpr double kSweep = 0.1;  // seconds a turn (10 Hz)
 
   // Scans in parallel; each frame's noise comes from its own seed, so threads do not change a byte.
   const std::size_t n = scan_times.size();
@@ -93,10 +146,17 @@ SimReport simulate(const SimOptions& o) {
                             static_cast<std::uint64_t>(o.world.epoch + 1) * 0x94D049BB133111EBull);
         std::unique_ptr<Scene> moving;
         if (traffic.size()) moving = std::make_unique<Scene>(traffic.scene_at(t, pose.translation(), lidar.max_range));
-        Scan scan = cast_scan(lidar, pose, scene, moving.get(), rng);
+        std::vector<float> shares;
+        Scan scan = o.sweep ? cast_sweep(lidar, [&](double share) { return traj.pose_at(t + share * kSweep); }, scene,
+                                         moving.get(), rng, &shares)
+                            : cast_scan(lidar, pose, scene, moving.get(), rng);
         char name[32];
         std::snprintf(name, sizeof(name), "%06zu.bin", i);
         write_kitti_bin((tmp / "velodyne" / name).string(), scan);
+        if (o.sweep) {
+          for (float& s : shares) s = static_cast<float>(s * kSweep);
+          write_point_times((tmp / "point_times" / name).string(), shares);
+        }
         counts[i] = scan.size();
         progress.update(++done);
       }
@@ -189,6 +249,7 @@ SimReport simulate(const SimOptions& o) {
   if (r.gps_mix.empty()) r.gps_mix = "none";
   r.length_m = traj.distance_at(t1) - traj.distance_at(t0);
   r.duration_s = t1 - t0;
+  r.max_speed_mps = traj.max_speed();
   r.threads = threads;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;

@@ -32,6 +32,19 @@ std::size_t SimTrajectory::segment(double t, double& frac) const {
   return i;
 }
 
+SimTrajectory SimTrajectory::retimed(double speed_scale) const {
+  if (!(speed_scale > 0) || !std::isfinite(speed_scale)) throw Error("the speed scale must be a positive number");
+  std::vector<double> t(times_.size());
+  for (std::size_t i = 0; i < t.size(); ++i) t[i] = times_.front() + (times_[i] - times_.front()) / speed_scale;
+  return SimTrajectory(std::move(t), poses_);
+}
+
+double SimTrajectory::max_speed() const {
+  double v = 0.0;
+  for (std::size_t i = 1; i < times_.size(); ++i) v = std::max(v, (cumulative_[i] - cumulative_[i - 1]) / (times_[i] - times_[i - 1]));
+  return v;
+}
+
 Pose SimTrajectory::pose_at(double t) const {
   double f = 0.0;
   std::size_t i = segment(t, f);
@@ -64,7 +77,9 @@ std::string find_times_for(const std::string& poses_path) {
   return {};
 }
 
-SimTrajectory trajectory_from_kitti(const std::string& poses_path, const std::string& times_path) {
+namespace {
+
+SimTrajectory trajectory_from_file(const std::string& poses_path, const std::string& times_path, bool cam0) {
   Trajectory cam = read_kitti_poses(poses_path);
   if (cam.size() < 2) throw Error(poses_path + ": needs at least two poses");
   std::vector<double> times;
@@ -79,10 +94,20 @@ SimTrajectory trajectory_from_kitti(const std::string& poses_path, const std::st
     for (std::size_t i = 0; i < cam.size(); ++i) times.push_back(0.1 * static_cast<double>(i));
   }
   Pose tr = Pose::Identity();  // LiDAR -> cam0, the nominal axis change
-  tr.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;
+  if (cam0) tr.linear() << 0, -1, 0, 0, 0, -1, 1, 0, 0;
   std::vector<Pose, Eigen::aligned_allocator<Pose>> poses;
   for (const Pose& p : cam.poses) poses.push_back(tr.inverse() * p * tr);
   return SimTrajectory(std::move(times), std::move(poses));
+}
+
+}  // namespace
+
+SimTrajectory trajectory_from_kitti(const std::string& poses_path, const std::string& times_path) {
+  return trajectory_from_file(poses_path, times_path, true);
+}
+
+SimTrajectory trajectory_from_lidar_poses(const std::string& poses_path, const std::string& times_path) {
+  return trajectory_from_file(poses_path, times_path, false);
 }
 
 namespace {

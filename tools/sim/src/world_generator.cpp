@@ -390,6 +390,45 @@ class Generator {
       }
       return 8.0;
     });
+    gardens();
+  }
+
+  // Front gardens and back gardens, as residential streets have (drive 0005's is one): hedges and
+  // bushes behind the pavement where the buildings leave room, trees behind the first row. The
+  // first simulator's streets were bare planes; this clutter is what a real scan's voxels and
+  // conditioning come from (docs/pl-sim.md, the table against the real drive).
+  void gardens() {
+    const float road = static_cast<float>(cfg_.road_half_width);
+    walk(0.5, 3.0, [&](const Frame& f, float side, double) {
+      const float yaw = yaw_of(f);
+      if (chance(0.55f)) {  // a hedge along the pavement's back edge
+        const float length = uniform(3.f, 9.f), depth = uniform(0.3f, 0.5f), height = uniform(0.8f, 1.7f);
+        const Vec2 c = at(f, length * 0.5f, side * (road + 3.4f + depth));
+        const Vec2 half(length * 0.5f, depth);
+        if (!occ_.free(c, half, yaw, Occupancy::kRoad, 0.1f)) return 1.0;
+        occ_.take(c, half, yaw);
+        WorldObject& o = new_object(ObjectClass::Tree, c, half, yaw, height);
+        add_box(o, c, o.base, Vec3(half.x(), half.y(), height * 0.5f), yaw, Material::Vegetation);
+        return static_cast<double>(length);
+      }
+      // A bush or two in the garden.
+      const Vec2 c = at(f, 1.0f, side * (road + uniform(3.6f, 6.0f)));
+      const float r = uniform(0.5f, 1.2f);
+      if (!occ_.free(c, Vec2(r, r), 0.f, Occupancy::kRoad, 0.1f)) return 1.0;
+      occ_.take(c, Vec2(r, r), 0.f);
+      WorldObject& o = new_object(ObjectClass::Tree, c, Vec2(r, r), 0.f, 1.6f * r);
+      o.shapes.push_back(make_ellipsoid(Vec3(c.x(), c.y(), o.base + 0.75f * r), Vec3(r, r * uniform(0.7f, 1.0f), 0.8f * r),
+                                        uniform(0.f, 3.14f), 0));
+      o.materials.push_back(Material::Vegetation);
+      return 2.0 * r;
+    });
+    walk(4.0, 12.0, [&](const Frame& f, float side, double) {  // back gardens: trees behind the first row
+      const Vec2 c = at(f, 0.f, side * (road + uniform(14.f, 30.f)));
+      if (!occ_.free(c, Vec2(0.4f, 0.4f), 0.f, Occupancy::kRoad, 0.2f)) return 2.0;
+      occ_.take(c, Vec2(0.4f, 0.4f), 0.f);
+      tree(c, uniform(1.0f, 1.5f));
+      return 4.0;
+    });
   }
 
   void estate() {
@@ -458,7 +497,14 @@ class Generator {
       WorldObject& o = world_.objects[movable[k]];
       if (o.cls == ObjectClass::Tree) {  // vegetation grows
         float g = u(1.2f, 1.4f);
-        for (std::size_t j = 1; j < o.shapes.size(); ++j) {
+        if (o.shapes.size() == 1) {  // a hedge or a bush: all of it, standing where it stood
+          Primitive& p = o.shapes[0];
+          p.b *= g;
+          p.a.z() = o.base + (p.a.z() - o.base) * g;
+          o.half *= g;
+          continue;
+        }
+        for (std::size_t j = 1; j < o.shapes.size(); ++j) {  // a tree: the canopy, not the trunk
           Primitive& p = o.shapes[j];
           p.b *= g;
           p.a.z() = o.base + (p.a.z() - o.base) * (1.0f + (g - 1.0f) * 0.5f);

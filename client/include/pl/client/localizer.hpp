@@ -82,6 +82,9 @@ struct IntegrityConfig {
   double distinct_m = 0.5;
   double distinct_deg = 3.0;  // ... or turned more than this
   double ambiguity_ratio = 0.85;
+  // After an ambiguous scan the next ambiguity_hold scans are not ok (degraded, the alternative's
+  // distance kept in their protection level) even when their seeds find no alternative.
+  int ambiguity_hold = 3;
   // Probes of the minimum's flatness: the fine registration started probe_m either way along the
   // direction held least (probe_points of the scan, probe_iterations); how far from the solution
   // they end is added to the protection level (a flat basin holds the position less than the
@@ -183,6 +186,7 @@ struct ScanReport {
   bool verified = false;               // ... and the relative ones, and no alternative fits about as well
   bool integrity = false;              // verified, from the registration's own minimum: the scan may be ok
   bool ambiguous = false;              // a distinctly different pose explains the scan about as well
+  bool after_ambiguity = false;        // within IntegrityConfig::ambiguity_hold scans of an ambiguous one
   bool resolved = false;               // a perturbed seed found a better minimum, which was taken
   double alternative_m = 0;            // distance to the best distinct alternative (0: none)
   double registration_sigma_m = 0;     // the registration's horizontal position sigma, inflated
@@ -254,6 +258,10 @@ class Localizer {
   // The state between scans (written by fuse on the worker; register_at reads it on the same thread).
   Uncertainty posterior_;      // after the last scan
   bool velocity_known_ = false, previous_fused_ = false, previous_verified_ = false, relocalizing_ = false;
+  // An ambiguity along a corridor does not end with the first scan whose seeds happen to find no
+  // alternative: scans left before ok again, and the distance of the last alternative.
+  int ambiguity_hold_left_ = 0;
+  double held_alternative_m_ = 0.0;
   // The last scan whose position was measured, from which momentum's uncertainty grows.
   double anchor_t_ = 0, anchor_speed_ = 0, anchor_speed_sigma_ = 0, anchor_yaw_rate_sigma_ = 0;
   Uncertainty anchor_;

@@ -60,12 +60,16 @@ struct Dataset {
   DatasetMeta meta;                   // from meta.json, or the layout's defaults
   bool has_meta_file = false;
   std::vector<std::string> sidecars;  // sidecar files found
+  std::string point_times_dir;        // point_times/ when the drive has per-point times, else empty
   WorldProjection projection;
 
   std::size_t size() const { return scan_paths.size(); }
   bool has_ground_truth() const { return !ground_truth.poses.empty(); }
   const char* layout_name() const;
   Scan load_scan(std::size_t i) const;
+  // Seconds from the scan's time of each point of scan i (`points` of them), from point_times/;
+  // empty when the dataset has none.
+  std::vector<float> load_point_times(std::size_t i, std::size_t points) const;
   // Ring of every point of a scan of this dataset (from the meta's point order / beam table).
   std::vector<std::uint16_t> rings(const Scan& scan) const;
   // A GPS position in the world frame; throws when the dataset has no geographic reference.

@@ -26,6 +26,13 @@ Scan read_kitti_bin(const std::string& path);
 Scan parse_kitti_bin(std::string_view bytes, const std::string& name);
 void write_kitti_bin(const std::string& path, const Scan& scan);
 
+// Per-point times of a scan (a dataset's point_times/ sidecar): little-endian float32 seconds from
+// the scan's time, one per point of the scan, in its order. Throws pl::Error naming the file when the
+// count is not `points`, or a time is not finite or lies a second or more from the scan's time.
+std::vector<float> read_point_times(const std::string& path, std::size_t points);
+std::vector<float> parse_point_times(std::string_view bytes, const std::string& name, std::size_t points);
+void write_point_times(const std::string& path, const std::vector<float>& times);
+
 // Ring of every point of a scan stored laser by laser (KITTI: each laser one counter-clockwise turn
 // from just left of straight ahead): a new ring starts where the azimuth falls back.
 std::vector<std::uint16_t> rings_from_azimuth(const Scan& scan);

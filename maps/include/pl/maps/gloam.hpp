@@ -19,7 +19,9 @@
 namespace pl::maps {
 
 enum class PoseSource { GroundTruth, Lidar };
-enum class Deskew { Auto, On, Off };  // auto: on for recordings without meta.json (KITTI sweeps while moving)
+// auto: the LiDAR odometry deskews recordings without meta.json (KITTI sweeps while moving) and drives
+// with point_times/; the merged map only the latter.
+enum class Deskew { Auto, On, Off };
 
 // The merge's defaults: 0.2 m voxels, every scan, returns from 2 to 80 m.
 inline MapBuildConfig gloam_merge_defaults() {

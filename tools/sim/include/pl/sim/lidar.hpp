@@ -2,6 +2,8 @@
 // counter-clockwise turn starting just left of straight ahead) in the sensor frame.
 #pragma once
 
+#include <cstdint>
+#include <functional>
 #include <random>
 #include <string>
 #include <vector>
@@ -13,6 +15,13 @@
 
 namespace pl::sim {
 
+// How one laser of a real sensor differs from the table its driver uses: the true beam points
+// `elevation_deg` higher and `azimuth_deg` further counter-clockwise than the table says, and its
+// ranges read `range_m` long. The driver computes points with the table, so the errors stay in the data.
+struct LaserError {
+  double elevation_deg = 0.0, azimuth_deg = 0.0, range_m = 0.0;
+};
+
 struct LidarModel {
   std::string name;                 // hdl64 | vlp16 | rs16
   std::string model;                // as written to meta.json
@@ -23,8 +32,14 @@ struct LidarModel {
   double range_noise = 0.02;   // sigma, metres
   double dropout = 0.01;       // share of returns lost at random
   double fov_deg = 360.0;      // 180: the rear half is blocked by the vehicle body
+  std::vector<LaserError> laser_errors;  // one per beam, or empty: a perfectly calibrated sensor
 };
 LidarModel lidar_model(const std::string& name);  // throws pl::Error for an unknown name
+
+// Per-laser calibration errors like a factory-calibrated HDL-64E's, drawn from `seed` and scaled by
+// `scale` (0: none): elevation and azimuth offsets of sigma 0.12 deg (a few tenths at most) and a
+// range bias of sigma 2 cm per laser.
+std::vector<LaserError> draw_laser_errors(std::size_t lasers, double scale, std::uint64_t seed);
 
 // Shapes with what they belong to, in one hierarchy.
 struct Scene {
@@ -32,8 +47,18 @@ struct Scene {
   std::vector<ShapeInfo> info;
 };
 
-// One scan from `sensor` (the LiDAR pose in the world). `moving` may be null. Deterministic for a
-// given rng state.
+// One scan from `sensor` (the LiDAR pose in the world), every ray from that one pose. `moving` may be
+// null. Deterministic for a given rng state.
 Scan cast_scan(const LidarModel& lidar, const Pose& sensor, const Scene& world, const Scene* moving, std::mt19937_64& rng);
+
+// The sweep of a spinning LiDAR: the head turns clockwise seen from above (as a Velodyne's) once per
+// sweep, and the scan's time is when it faces straight ahead (KITTI's convention). A firing at
+// azimuth a (counter-clockwise from ahead, in (-180, 180] deg) happens at share s = -a / 360 of the
+// sweep, from -0.5 (just past the back, on the left) to +0.5 (back, on the right); `sensor_at(s)`
+// gives the LiDAR's pose then. Each point is written in the sensor frame of its own firing, as a
+// driver gives it, so the vehicle's motion distorts the scan. `shares`, when not null, receives each
+// point's share.
+Scan cast_sweep(const LidarModel& lidar, const std::function<Pose(double share)>& sensor_at, const Scene& world,
+                const Scene* moving, std::mt19937_64& rng, std::vector<float>* shares = nullptr);
 
 }  // namespace pl::sim

@@ -15,12 +15,18 @@ struct SimOptions {
   std::string route;            // built-in route, or
   std::string trajectory_path;  // a KITTI pose file
   std::string times_path;       // its times (found beside it when empty)
+  bool lidar_poses = false;     // the file holds LiDAR poses (else KITTI cam0 poses)
+  double speed_scale = 1.0;     // the route driven this many times as fast (scans stay at 10 Hz)
   std::string out_dir;
   long long frames = 0;  // 0: the whole route
   WorldConfig world;
   TrafficConfig traffic;
   std::string lidar = "hdl64";
   double fov_deg = 360.0;
+  // Each scan swept over 0.1 s while the vehicle moves (points in the sensor frame of their own
+  // firing, their times written to point_times/); false: every ray from the scan time's pose.
+  bool sweep = true;
+  double calibration_error = 1.0;  // per-laser errors like a real HDL-64E's, times this (0: none)
   std::string gnss_profile;
   GeoPoint origin{49.011212804, 8.422885042, 112.83};
   EncoderConfig encoder;
@@ -38,6 +44,7 @@ struct SimReport {
   std::size_t encoder_samples = 0, gps_fixes = 0, map_points = 0;
   std::string gps_mix;
   double length_m = 0, duration_s = 0, seconds = 0;
+  double max_speed_mps = 0;
   int threads = 1;
 };
 

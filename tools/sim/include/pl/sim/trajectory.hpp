@@ -24,6 +24,10 @@ class SimTrajectory {
   // Time at which the path has covered distance s (inverse of distance_at; clamped).
   double time_at_distance(double s) const;
   const std::vector<double>& times() const { return times_; }
+  // The same path driven `speed_scale` times as fast (times from the start divided by it).
+  SimTrajectory retimed(double speed_scale) const;
+  // The fastest speed between two samples, m/s.
+  double max_speed() const;
   const std::vector<Pose, Eigen::aligned_allocator<Pose>>& poses() const { return poses_; }
 
  private:
@@ -37,6 +41,8 @@ class SimTrajectory {
 // nominal axis change (x_cam = -y_velo, y_cam = -z_velo, z_cam = x_velo). Times come from
 // `times_path`, or 10 Hz when it is empty.
 SimTrajectory trajectory_from_kitti(const std::string& poses_path, const std::string& times_path);
+// The same, for a file that holds LiDAR poses already (e.g. `pl-dataset poses` of a drive).
+SimTrajectory trajectory_from_lidar_poses(const std::string& poses_path, const std::string& times_path);
 // The times file that goes with a KITTI pose file: `times-NN.txt` beside `NN.txt`, else `times.txt`
 // beside it; empty when there is none.
 std::string find_times_for(const std::string& poses_path);
