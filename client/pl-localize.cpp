@@ -164,7 +164,7 @@ int main(int argc, char** argv) {
     if (!replay.time_shift.empty() && replay.odometry != pl::client::OdometrySource::None)
       throw Error("--cut-clock close needs --odometry lidar (the odometry's own clock cannot be closed over the cut)");
     // auto: on for scans that carry their points' times (the sensor says it sweeps), off otherwise.
-    lc.compensate_motion = deskew == "on" || (deskew == "auto" && !ds.point_times_dir.empty());
+    lc.compensate_motion = deskew == "on" || (deskew == "auto" && ds.has_point_times());
     if (ds.meta.sensor.rate_hz > 0) lc.sweep_s = 1.0 / ds.meta.sensor.rate_hz;
     choose_start(ds, init.empty() ? (ds.gps.empty() ? "gt" : "gps") : init, init_search == "on", cfg, replay);
     if (db.empty()) cfg.tiles.server = server;

@@ -33,7 +33,7 @@ Scan Dataset::load_scan(std::size_t i) const {
 
 std::vector<float> Dataset::load_point_times(std::size_t i, std::size_t points) const {
   if (i >= scan_paths.size()) throw Error("scan index " + std::to_string(i) + " out of range (dataset has " + std::to_string(scan_paths.size()) + " scans)");
-  if (point_times_dir.empty()) return {};
+  if (!has_point_times()) return {};
   const std::string& scan = scan_paths[i];
   const std::string path = point_times_dir + "/" + scan.substr(scan.find_last_of('/') + 1);
   if (!file_exists(path))

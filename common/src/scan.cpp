@@ -34,6 +34,37 @@ void check_finite(const Scan& scan, const std::string& name) {
   }
 }
 
+using File = std::unique_ptr<std::FILE, int (*)(std::FILE*)>;
+
+// A regular file opened for reading, and its size: the bytes present (a folder's "size" is not).
+File open_regular(const std::string& path, std::size_t& size) {
+  File f(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!f) throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
+  struct stat st {};
+  if (::fstat(::fileno(f.get()), &st) != 0 || !S_ISREG(st.st_mode)) throw Error(path + ": not a regular file");
+  size = static_cast<std::size_t>(st.st_size);
+  return f;
+}
+
+// Reads `size` bytes straight into `dst` (no copy of every scan the localizer loads).
+void read_exactly(const File& f, void* dst, std::size_t size, const std::string& path) {
+  if (size > 0 && std::fread(dst, 1, size, f.get()) != size)
+    throw Error(path + ": read failed (" + (std::ferror(f.get()) ? std::strerror(errno) : "the file got shorter") + ")");
+}
+
+Error times_size_error(std::size_t size, std::size_t points, const std::string& name) {
+  return Error(name + ": " + std::to_string(size) + " bytes for the times of " + std::to_string(points) +
+               " points (expected float32 seconds, 4 bytes a point, as many as the scan has points)");
+}
+
+// Every time within a second of the scan's (a NaN is not).
+void check_times(const std::vector<float>& times, const std::string& name) {
+  for (std::size_t i = 0; i < times.size(); ++i)
+    if (!(std::abs(times[i]) < 1.0f))
+      throw Error(name + ": point " + std::to_string(i) + "'s time " + std::to_string(times[i]) +
+                  " is not within a second of the scan's time (seconds from the scan's time are expected)");
+}
+
 }  // namespace
 
 std::vector<Eigen::Vector3f> to_points(const Scan& scan) {
@@ -53,17 +84,11 @@ Scan parse_kitti_bin(std::string_view bytes, const std::string& name) {
 }
 
 Scan read_kitti_bin(const std::string& path) {
-  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
-  if (!f) throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
-  // The size of a regular file is the bytes present (a folder's "size" is not), and reading straight
-  // into the scan saves a copy of every scan the localizer loads.
-  struct stat st {};
-  if (::fstat(::fileno(f.get()), &st) != 0 || !S_ISREG(st.st_mode)) throw Error(path + ": not a regular file");
-  const auto size = static_cast<std::size_t>(st.st_size);
+  std::size_t size = 0;
+  const File f = open_regular(path, size);
   if (size % sizeof(PointXYZI) != 0) throw Error(not_whole_points(size, path));
   Scan scan(size / sizeof(PointXYZI));
-  if (!scan.empty() && std::fread(scan.data(), sizeof(PointXYZI), scan.size(), f.get()) != scan.size())
-    throw Error(path + ": read failed (" + (std::ferror(f.get()) ? std::strerror(errno) : "the file got shorter") + ")");
+  read_exactly(f, scan.data(), size, path);
   check_finite(scan, path);
   return scan;
 }
@@ -76,38 +101,23 @@ void write_kitti_bin(const std::string& path, const Scan& scan) {
   if (std::fclose(f.release()) != 0) throw Error(path + ": write failed (disk full?)");
 }
 
-namespace {
-
-Error times_size_error(std::size_t size, std::size_t points, const std::string& name) {
-  return Error(name + ": " + std::to_string(size) + " bytes for the times of " + std::to_string(points) +
-               " points (expected float32 seconds, 4 bytes a point, as many as the scan has points)");
-}
-
-}  // namespace
-
 std::vector<float> parse_point_times(std::string_view bytes, const std::string& name, std::size_t points) {
   if (bytes.size() != points * sizeof(float)) throw times_size_error(bytes.size(), points, name);
   std::vector<float> times(points);
   if (points) std::memcpy(times.data(), bytes.data(), bytes.size());
-  for (std::size_t i = 0; i < times.size(); ++i)
-    if (!(std::abs(times[i]) < 1.0f))
-      throw Error(name + ": point " + std::to_string(i) + "'s time " + std::to_string(times[i]) +
-                  " is not within a second of the scan's time (seconds from the scan's time are expected)");
+  check_times(times, name);
   return times;
 }
 
 std::vector<float> read_point_times(const std::string& path, std::size_t points) {
-  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"), &std::fclose);
-  if (!f) throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
-  struct stat st {};
-  if (::fstat(::fileno(f.get()), &st) != 0 || !S_ISREG(st.st_mode)) throw Error(path + ": not a regular file");
-  // At most the expected size is read: a longer file is refused by its size, not read whole.
-  const auto size = static_cast<std::size_t>(st.st_size);
+  std::size_t size = 0;
+  const File f = open_regular(path, size);
+  // A file of another size is refused by its size, not read.
   if (size != points * sizeof(float)) throw times_size_error(size, points, path);
-  std::string bytes(size, '\0');
-  if (size && std::fread(bytes.data(), 1, size, f.get()) != size)
-    throw Error(path + ": read failed (" + (std::ferror(f.get()) ? std::strerror(errno) : "the file got shorter") + ")");
-  return parse_point_times(bytes, path, points);
+  std::vector<float> times(points);
+  read_exactly(f, times.data(), size, path);
+  check_times(times, path);
+  return times;
 }
 
 void write_point_times(const std::string& path, const std::vector<float>& times) {

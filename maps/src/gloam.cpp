@@ -22,7 +22,7 @@ namespace {
 // Real recordings (no meta.json: KITTI) sweep while the car moves, and so do drives whose points carry
 // their own times (point_times/: pl-sim's swept scans, a driver's per-point times).
 bool deskews(const GloamConfig& cfg, const Dataset& ds) {
-  return cfg.deskew == Deskew::On || (cfg.deskew == Deskew::Auto && (!ds.has_meta_file || !ds.point_times_dir.empty()));
+  return cfg.deskew == Deskew::On || (cfg.deskew == Deskew::Auto && (!ds.has_meta_file || ds.has_point_times()));
 }
 
 std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
@@ -228,7 +228,7 @@ GloamResult build_gloam_map(const Dataset& ds, const GloamConfig& cfg, const Glo
   // The merge corrects the sweep when told, or by itself for scans that carry their points' times
   // (the sensor says it sweeps). Not for KITTI raw by default: on drive 0005 the azimuth-timed
   // correction made the localizer's error larger, either way round (docs/benchmarks.md).
-  merge.deskew = cfg.deskew == Deskew::On || (cfg.deskew == Deskew::Auto && !ds.point_times_dir.empty());
+  merge.deskew = cfg.deskew == Deskew::On || (cfg.deskew == Deskew::Auto && ds.has_point_times());
   if (ds.meta.sensor.rate_hz > 0) merge.sweep_s = 1.0 / ds.meta.sensor.rate_hz;
   result.map = build_map_from_poses(ds, result.poses, merge,
                                     [&](std::size_t done, std::size_t) { tell.progress("merging scans", done, merged); });

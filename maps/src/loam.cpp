@@ -381,11 +381,14 @@ LoamFrame LoamOdometry::add(const Scan& scan, const std::vector<std::uint16_t>& 
   const auto sweep_of = [&](const Pose& pose) { return scale_motion(m.last.inverse() * pose, dt > 0 ? cfg.scan_period_s / dt : 0.0); };
   const bool deskew = cfg.deskew && m.scans > 0;
   const LoamFeatures raw = deskew ? f : LoamFeatures{};
+  const auto deskew_features = [&](const Pose& sweep) {
+    registration::compensate_motion(f.edges, sweep, f.edge_time);
+    registration::compensate_motion(f.planes, sweep, f.plane_time);
+  };
   Pose sweep = Pose::Identity();
   if (deskew) {
     sweep = sweep_of(out.pose);  // from the prediction
-    registration::compensate_motion(f.edges, sweep, f.edge_time);
-    registration::compensate_motion(f.planes, sweep, f.plane_time);
+    deskew_features(sweep);
   }
 
   if (m.scans == 0) {
@@ -445,8 +448,7 @@ LoamFrame LoamOdometry::add(const Scan& scan, const std::vector<std::uint16_t>& 
       const Pose change = sweep.inverse() * measured;
       if (change.translation().norm() > cfg.redeskew_m || rotation_angle(change) > cfg.redeskew_deg * M_PI / 180.0) {
         f = raw;
-        registration::compensate_motion(f.edges, measured, f.edge_time);
-        registration::compensate_motion(f.planes, measured, f.plane_time);
+        deskew_features(measured);
         solved = solve(solved);
       }
     }

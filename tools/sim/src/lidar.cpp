@@ -68,12 +68,14 @@ Scan cast_sweep(const LidarModel& lidar, const std::function<Pose(double share)>
 
   // Per firing column: the nominal azimuth, whether it is in view, its share of the sweep and the
   // sensor's pose at that moment.
-  std::vector<double> az(steps), share(steps);
+  std::vector<double> az(steps), share(steps), cos_az(steps), sin_az(steps);
   std::vector<bool> seen(steps);
   std::vector<Eigen::Matrix3f> rot(steps);
   std::vector<Eigen::Vector3f> origin(steps);
   for (int k = 0; k < steps; ++k) {
     az[k] = (k + 0.5) * step;  // starts just left of straight ahead, counter-clockwise
+    cos_az[k] = std::cos(az[k]);
+    sin_az[k] = std::sin(az[k]);
     const double a = std::remainder(az[k], 2.0 * M_PI);
     seen[k] = std::abs(a) <= half_fov;
     share[k] = -a / (2.0 * M_PI);
@@ -91,16 +93,18 @@ Scan cast_sweep(const LidarModel& lidar, const std::function<Pose(double share)>
     const double el = lidar.vertical_deg[r] * M_PI / 180.0;
     const LaserError err = lidar.laser_errors.empty() ? LaserError{} : lidar.laser_errors[r];
     const double el_true = el + err.elevation_deg * M_PI / 180.0, daz = err.azimuth_deg * M_PI / 180.0;
+    const double cos_daz = std::cos(daz), sin_daz = std::sin(daz);  // the true azimuth by angle addition
     const float ce = static_cast<float>(std::cos(el)), se = static_cast<float>(std::sin(el));
     const float ct = static_cast<float>(std::cos(el_true)), st = static_cast<float>(std::sin(el_true));
     const bool calibrated = err.elevation_deg == 0.0 && err.azimuth_deg == 0.0;
     for (int k = 0; k < steps; ++k) {
       if (!seen[k]) continue;
-      const float ca = static_cast<float>(std::cos(az[k])), sa = static_cast<float>(std::sin(az[k]));
+      const float ca = static_cast<float>(cos_az[k]), sa = static_cast<float>(sin_az[k]);
       const Eigen::Vector3f d_table(ce * ca, ce * sa, se);  // where the driver thinks the beam points
       Eigen::Vector3f d_true = d_table;                     // where it does
       if (!calibrated)
-        d_true = Eigen::Vector3f(ct * static_cast<float>(std::cos(az[k] + daz)), ct * static_cast<float>(std::sin(az[k] + daz)), st);
+        d_true = Eigen::Vector3f(ct * static_cast<float>(cos_az[k] * cos_daz - sin_az[k] * sin_daz),
+                                 ct * static_cast<float>(sin_az[k] * cos_daz + cos_az[k] * sin_daz), st);
       Ray ray{origin[k], rot[k] * d_true, max_range};
       Hit hit;
       const ShapeInfo* info = nullptr;

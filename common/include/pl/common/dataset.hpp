@@ -65,6 +65,7 @@ struct Dataset {
 
   std::size_t size() const { return scan_paths.size(); }
   bool has_ground_truth() const { return !ground_truth.poses.empty(); }
+  bool has_point_times() const { return !point_times_dir.empty(); }  // the sensor says it sweeps
   const char* layout_name() const;
   Scan load_scan(std::size_t i) const;
   // Seconds from the scan's time of each point of scan i (`points` of them), from point_times/;
