@@ -7,14 +7,9 @@ namespace pl::client {
 namespace {
 
 
-
-// a * (a^-1 b)^s: s = 1 gives b, s = 2 continues the motion from a to b once more.
+// The motion from a to b continued past b at its constant twist for s times its duration.
 Eigen::Isometry3d extrapolate(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double s) {
-  const Eigen::Isometry3d d = a.inverse() * b;
-  Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
-  step.linear() = rotation_from_vector(s * rotation_vector(d.linear()));
-  step.translation() = s * d.translation();
-  return a * step;
+  return b * scale_motion(a.inverse() * b, s);
 }
 
 }  // namespace
@@ -58,7 +53,7 @@ Eigen::Isometry3d Fusion::predict(double t) const {
     if (auto o = odometry_->at(t)) return correction_ * *o;
   // Momentum: odometry increments are missing, keep the recent velocity.
   if (poses_.size() < 2 || times_.back() <= times_.front()) return poses_.back();
-  return extrapolate(poses_.front(), poses_.back(), (t - times_.front()) / (times_.back() - times_.front()));
+  return extrapolate(poses_.front(), poses_.back(), (t - times_.back()) / (times_.back() - times_.front()));
 }
 
 void Fusion::remember(double ts, const Eigen::Isometry3d& x) {

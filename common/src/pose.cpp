@@ -33,6 +33,44 @@ Eigen::Vector3d rotation_vector(const Eigen::Matrix3d& r) {
   return aa.angle() * aa.axis();
 }
 
+namespace {
+
+Eigen::Matrix3d hat(const Eigen::Vector3d& w) {
+  Eigen::Matrix3d m;
+  m << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
+  return m;
+}
+
+}  // namespace
+
+// t = V rho with V = I + (1 - cos a) / a^2 W + (a - sin a) / a^3 W^2, W = hat(omega), a = |omega|;
+// the series below 1e-4 rad, where the closed forms lose their digits.
+Pose pose_from_twist(const Twist& xi) {
+  const Eigen::Vector3d rho = xi.head<3>(), w = xi.tail<3>();
+  const double a = w.norm(), a2 = a * a;
+  const Eigen::Matrix3d W = hat(w);
+  const double b = a < 1e-4 ? 0.5 - a2 / 24.0 : (1.0 - std::cos(a)) / a2;
+  const double c = a < 1e-4 ? 1.0 / 6.0 - a2 / 120.0 : (a - std::sin(a)) / (a2 * a);
+  Pose out = Pose::Identity();
+  out.linear() = rotation_from_vector(w);
+  out.translation() = (Eigen::Matrix3d::Identity() + b * W + c * W * W) * rho;
+  return out;
+}
+
+// rho = V^-1 t with V^-1 = I - W / 2 + (1 - a sin a / (2 (1 - cos a))) / a^2 W^2.
+Twist twist_of(const Pose& pose) {
+  const Eigen::Vector3d w = rotation_vector(pose.linear());
+  const double a = w.norm(), a2 = a * a;
+  const Eigen::Matrix3d W = hat(w);
+  const double d = a < 1e-4 ? 1.0 / 12.0 + a2 / 720.0 : (1.0 - a * std::sin(a) / (2.0 * (1.0 - std::cos(a)))) / a2;
+  Twist xi;
+  xi.head<3>() = (Eigen::Matrix3d::Identity() - 0.5 * W + d * W * W) * pose.translation();
+  xi.tail<3>() = w;
+  return xi;
+}
+
+Pose scale_motion(const Pose& d, double f) { return pose_from_twist(f * twist_of(d)); }
+
 double rotation_angle(const Pose& pose) {
   // atan2 of sin (from the skew-symmetric part) and cos (from the trace): small angles keep their
   // precision, which acos of the trace alone loses near zero.

@@ -7,14 +7,6 @@
 
 namespace pl::registration {
 
-Eigen::Isometry3d scale_motion(const Eigen::Isometry3d& d, double f) {
-  const Eigen::AngleAxisd aa(d.linear());
-  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
-  out.linear() = Eigen::AngleAxisd(f * aa.angle(), aa.axis()).toRotationMatrix();
-  out.translation() = f * d.translation();
-  return out;
-}
-
 void compensate_motion(std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& sweep, const std::vector<float>& shares) {
   if (!shares.empty() && shares.size() != points.size()) throw Error("compensate_motion: one share per point, or none");
   if (!sweep.matrix().allFinite()) throw Error("compensate_motion: the sweep's motion is not finite");

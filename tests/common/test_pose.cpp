@@ -108,3 +108,29 @@ TEST(Pose, MalformedLineNamesFileAndLine) {
 TEST(Pose, RotationAngleKeepsSmallAngles) {
   for (double a : {1e-9, 1e-6, 1e-3, 0.5, 3.0}) EXPECT_NEAR(pl::rotation_angle(pl::make_pose(0, 0, 0, 0, 0, a)), a, 1e-12 + 1e-9 * a);
 }
+
+// A vehicle on a circle at a steady speed and turn rate: continuing one step's motion at its twist
+// lands on the circle again, where scaling the step's translation and angle apart leaves the arc.
+TEST(Pose, ScaleMotionStaysOnTheArc) {
+  const double radius = 39.0, step = 5.0 * M_PI / 180.0;  // drive 0005's bends: 3.4 m a step
+  auto on_circle = [&](double a) { return pl::make_pose(radius * std::sin(a), radius * (1.0 - std::cos(a)), 0.0, 0.0, 0.0, a); };
+  const pl::Pose a = on_circle(0.0), b = on_circle(3.0 * step);
+  const pl::Pose predicted = b * pl::scale_motion(a.inverse() * b, 1.0 / 3.0);
+  const pl::Pose truth = on_circle(4.0 * step);
+  EXPECT_LT((predicted.translation() - truth.translation()).norm(), 1e-9);
+  EXPECT_NEAR(pl::yaw_of(predicted), 4.0 * step, 1e-12);
+  // The chord scaled: a third of the translation from b, turned by a third of the angle.
+  pl::Pose chord = pl::Pose::Identity();
+  const pl::Pose d = a.inverse() * b;
+  chord.linear() = pl::rotation_from_vector(pl::rotation_vector(d.linear()) / 3.0);
+  chord.translation() = d.translation() / 3.0;
+  EXPECT_GT(((b * chord).translation() - truth.translation()).norm(), 0.03);
+  // exp and log are inverse, at a large and a tiny angle; f = 0 is no motion, f = 1 the motion.
+  for (const double yaw : {2.5, 1e-7}) {
+    const pl::Pose m = pl::make_pose(1.0, -2.0, 0.5, 0.1, -0.2, yaw);
+    EXPECT_TRUE(pl::pose_from_twist(pl::twist_of(m)).isApprox(m, 1e-9));
+    EXPECT_TRUE(pl::scale_motion(m, 1.0).isApprox(m, 1e-9));
+    EXPECT_TRUE(pl::scale_motion(m, 0.0).isApprox(pl::Pose::Identity(), 1e-12));
+    EXPECT_TRUE(pl::scale_motion(pl::scale_motion(m, 0.5), 2.0).isApprox(m, 1e-9));
+  }
+}

@@ -31,6 +31,16 @@ double yaw_of(const Pose& pose);
 // The rotation of rotation vector w (axis * angle, radians), and back: SO(3)'s exp and log.
 Eigen::Matrix3d rotation_from_vector(const Eigen::Vector3d& w);
 Eigen::Vector3d rotation_vector(const Eigen::Matrix3d& r);
+// SE(3)'s exp and log: the twist (translation part rho, then rotation vector omega) whose constant
+// motion over unit time is the pose, and back. (No Debian 12 package has a Lie group library:
+// Sophus is not in bookworm.)
+using Twist = Eigen::Matrix<double, 6, 1>;
+Pose pose_from_twist(const Twist& xi);
+Twist twist_of(const Pose& pose);
+// A motion d continued at constant twist for f times its duration: exp(f log d). A vehicle turning
+// at a steady rate stays on its arc, where scaling the translation and the angle apart (the chord)
+// puts it off the curve: 0.6 m after 3.4 m on drive 0005's bends.
+Pose scale_motion(const Pose& d, double f);
 // Rotation angle of a pose's rotation part, in radians [0, pi] (precise for small angles too).
 double rotation_angle(const Pose& pose);
 // Projects a nearly-orthonormal 3x3 matrix (e.g. parsed from text rounded to 7 digits) onto SO(3).
