@@ -179,7 +179,7 @@ Prediction Localizer::predict(double t) const {
   return p;
 }
 
-Uncertainty Localizer::grow(double t, const Prediction& p) const {
+Uncertainty Localizer::grow(double t, const Prediction& p, bool motion_only) const {
   const MotionConfig& m = cfg_.motion;
   Uncertainty u;
   if (p.odometry) {  // external odometry: a random walk per 0.1 s since the last scan
@@ -196,7 +196,7 @@ Uncertainty Localizer::grow(double t, const Prediction& p) const {
   const double T = std::max(0.0, t - anchor_t_);
   const double speed = anchor_speed_sigma_ * T, accel = 0.5 * m.accel_sigma_mps2 * T * T;
   const double turn = anchor_yaw_rate_sigma_ * T + 0.5 * m.yaw_accel_sigma_dps2 * kDeg * T * T;
-  u = anchor_;
+  if (!motion_only) u = anchor_;
   add_sigma(u.along, std::hypot(speed, accel));
   add_sigma(u.across, std::max(0.15 * speed, 0.5 * accel) + turn * anchor_speed_ * T);
   add_sigma(u.yaw, turn);
@@ -242,18 +242,22 @@ ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& 
   }
 
   // LiDAR odometry measures the motion where no external odometry does, when the local map's basin
-  // reaches the prediction's uncertainty.
+  // reaches the uncertainty of the motion since the last scan. The local map lies where the recent
+  // scans were put, so the pose's own uncertainty then does not widen it: gated on that, the odometry
+  // stopped after an unconfirmed search at four times drive 0005's speed (2 deg of yaw sigma grown
+  // over 0.83 s past the coarse basin), and every later scan searched again.
   double t0 = now_ms();
-  if (cfg_.lidar_odometry && !prediction.odometry && !odometry_.empty() && 3.0 * u.horizontal() <= m.coarse_basin_m &&
-      3.0 * u.yaw <= m.coarse_basin_deg * kDeg) {
-    const bool wide = 3.0 * u.horizontal() > m.fine_basin_m || 3.0 * u.yaw > m.fine_basin_deg * kDeg;
+  const Uncertainty motion = grow(t, prediction, true);
+  if (cfg_.lidar_odometry && !prediction.odometry && !odometry_.empty() && 3.0 * motion.horizontal() <= m.coarse_basin_m &&
+      3.0 * motion.yaw <= m.coarse_basin_deg * kDeg) {
+    const bool wide = 3.0 * motion.horizontal() > m.fine_basin_m || 3.0 * motion.yaw > m.fine_basin_deg * kDeg;
     const registration::IcpResult odo = odometry_.track(points, guess, wide);
     if (odo.accepted) {
       const double d = horizontal_distance(last_pose_, odo.pose);
       guess = odo.pose;
       // From a wide basin the increment is as uncertain as half the basin.
       const double step = m.odometry_sigma_m + m.odometry_share * d;
-      const double g = wide ? std::max(step, u.horizontal() / 2.0) : step;
+      const double g = wide ? std::max(step, motion.horizontal() / 2.0) : step;
       u = posterior_;
       add_sigma(u.along, g);
       add_sigma(u.across, g);

@@ -272,7 +272,9 @@ class Localizer {
   std::vector<double> recent_share_, recent_rms_;  // of verified scans, for the relative checks
   std::vector<Eigen::Vector3f> scan_;              // the scan between register_at and fuse
 
-  Uncertainty grow(double t, const Prediction& p) const;
+  // The prediction's uncertainty at t; `motion_only`: of the motion since the last measured scan alone,
+  // without the pose's own uncertainty then (what a registration to the recent scans must reach).
+  Uncertainty grow(double t, const Prediction& p, bool motion_only = false) const;
   // The ROI maps from `provider`'s tiles round `center`.
   void load_maps(const Eigen::Vector2d& center, const TileProvider& provider);
   void set_anchor(double t, const Uncertainty& u, bool velocity_known, double speed);
