@@ -3,16 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "pl/common/pose.hpp"
+
 namespace pl::client {
-namespace {
-
-
-// The motion from a to b continued past b at its constant twist for s times its duration.
-Eigen::Isometry3d extrapolate(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double s) {
-  return b * scale_motion(a.inverse() * b, s);
-}
-
-}  // namespace
 
 std::array<double, 6> steady_state_gain(const FusionConfig& cfg) {
   std::array<double, 6> k{};
@@ -51,9 +44,10 @@ bool Fusion::odometry_covers(double t) const {
 Eigen::Isometry3d Fusion::predict(double t) const {
   if (odometry_ && have_correction_)
     if (auto o = odometry_->at(t)) return correction_ * *o;
-  // Momentum: odometry increments are missing, keep the recent velocity.
+  // Momentum: odometry increments are missing, keep the recent velocity -- the window's motion
+  // continued past its last pose at its constant twist.
   if (poses_.size() < 2 || times_.back() <= times_.front()) return poses_.back();
-  return extrapolate(poses_.front(), poses_.back(), (t - times_.back()) / (times_.back() - times_.front()));
+  return poses_.back() * scale_motion(poses_.front().inverse() * poses_.back(), (t - times_.back()) / (times_.back() - times_.front()));
 }
 
 void Fusion::remember(double ts, const Eigen::Isometry3d& x) {

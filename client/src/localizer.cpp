@@ -183,7 +183,7 @@ Uncertainty Localizer::grow(double t, const Prediction& p, bool motion_only) con
   const MotionConfig& m = cfg_.motion;
   Uncertainty u;
   if (p.odometry) {  // external odometry: a random walk per 0.1 s since the last scan
-    u = posterior_;
+    if (!motion_only) u = posterior_;
     const double steps = std::sqrt(std::max(0.0, t - last_t_) / 0.1);
     add_sigma(u.along, cfg_.fusion.odometry_sigma[0] * steps);
     add_sigma(u.across, cfg_.fusion.odometry_sigma[1] * steps);
@@ -237,7 +237,7 @@ ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& 
   r.compensated = prediction.compensated;
   const bool compensate = cfg_.compensate_motion && !prediction.compensated && !relocalizing_ && dt > 0 && dt < 1.0;
   if (compensate && (velocity_known_ || prediction.odometry)) {
-    registration::compensate_motion(scan_, registration::scale_motion(last_pose_.inverse() * prediction.pose, cfg_.sweep_s / dt));
+    registration::compensate_motion(scan_, scale_motion(last_pose_.inverse() * prediction.pose, cfg_.sweep_s / dt));
     r.compensated = true;
   }
 
@@ -268,7 +268,7 @@ ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& 
       // (a turn ending) constant velocity turned the scan by the old yaw rate.
       if (compensate) {
         scan_ = scan;
-        registration::compensate_motion(scan_, registration::scale_motion(last_pose_.inverse() * odo.pose, cfg_.sweep_s / dt));
+        registration::compensate_motion(scan_, scale_motion(last_pose_.inverse() * odo.pose, cfg_.sweep_s / dt));
         r.compensated = true;
       }
     }

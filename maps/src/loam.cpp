@@ -143,9 +143,6 @@ struct Match {
   registration::FeatureTarget target;
 };
 
-using registration::scale_motion;
-
-
 // Normal equations of the matches at (R, t), Cauchy-weighted, pairs beyond max_res dropped.
 registration::NormalEquations accumulate(const std::vector<Match>& matches, const Eigen::Matrix3f& R, const Eigen::Vector3f& t,
                                          float k2, float max_res2) {

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "pl/common/error.hpp"
+#include "pl/common/pose.hpp"
 #include "pl/registration/motion.hpp"
 
 namespace pl::maps {
@@ -27,7 +28,7 @@ void deskew(Scan& scan, const Trajectory& poses, std::size_t i, double sweep_s) 
   if (a == b || poses.times.size() != poses.size()) return;
   const double dt = poses.times[b] - poses.times[a];
   if (!(dt > 0)) return;
-  const Eigen::Isometry3d sweep = registration::scale_motion(poses.poses[a].inverse() * poses.poses[b], sweep_s / dt);
+  const Eigen::Isometry3d sweep = scale_motion(poses.poses[a].inverse() * poses.poses[b], sweep_s / dt);
   std::vector<Eigen::Vector3f> points = to_points(scan);
   registration::compensate_motion(points, sweep);
   for (std::size_t k = 0; k < scan.size(); ++k) scan[k].x = points[k].x(), scan[k].y = points[k].y(), scan[k].z = points[k].z();

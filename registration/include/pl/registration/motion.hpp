@@ -8,12 +8,7 @@
 #include <cmath>
 #include <vector>
 
-#include "pl/common/pose.hpp"
-
 namespace pl::registration {
-
-// A motion d scaled by f at constant velocity (its twist times f): pl::scale_motion of common/pose.
-using pl::scale_motion;
 
 // A point's time within the sweep from its azimuth, as a share of the sweep: a clockwise spin
 // (Velodyne's) timed when facing straight ahead (KITTI's): -0.5 just past the back on the left, 0
