@@ -10,7 +10,8 @@
 //   pcl NDT                 pcl::NormalDistributionsTransform on the same map points
 // Errors are the translation error of each scan's estimate against its ground-truth pose (no
 // alignment). The benchmark reports; it never fails on a figure.
-//   bench_localize DATASET_DIR MAPS.sqlite [--map NAME] [--quick N] [--every K] [--ndt-eps E]
+//   bench_localize DATASET_DIR MAPS.sqlite [--map NAME] [--quick N] [--every K [--phase P]] [--ndt-eps E]
+// (--every K --phase P: every K-th odd scan from the P-th, one of the K drives interleaved in the recording)
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/registration/icp.h>
@@ -194,7 +195,7 @@ double per_scan_median(const Run& r) {
 
 int main(int argc, char** argv) try {
   std::string dir, db, map_name = "k05";
-  std::size_t quick = 0, every = 1;
+  std::size_t quick = 0, every = 1, phase = 0;
   double ndt_eps = 1e-4;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -204,6 +205,8 @@ int main(int argc, char** argv) try {
       quick = static_cast<std::size_t>(std::stoul(argv[++i]));
     else if (a == "--every" && i + 1 < argc)
       every = std::max<std::size_t>(1, static_cast<std::size_t>(std::stoul(argv[++i])));
+    else if (a == "--phase" && i + 1 < argc)
+      phase = static_cast<std::size_t>(std::stoul(argv[++i]));
     else if (a == "--ndt-eps" && i + 1 < argc)
       ndt_eps = std::stod(argv[++i]);
     else if (dir.empty())
@@ -211,15 +214,19 @@ int main(int argc, char** argv) try {
     else if (db.empty())
       db = a;
     else {
-      std::fprintf(stderr, "usage: bench_localize DATASET_DIR MAPS.sqlite [--map NAME] [--quick N] [--every K] [--ndt-eps E]\n");
+      std::fprintf(stderr, "usage: bench_localize DATASET_DIR MAPS.sqlite [--map NAME] [--quick N] [--every K [--phase P]] [--ndt-eps E]\n");
       return 2;
     }
   }
   if (dir.empty() || db.empty()) {
-    std::fprintf(stderr, "usage: bench_localize DATASET_DIR MAPS.sqlite [--map NAME] [--quick N] [--every K] [--ndt-eps E]\n");
+    std::fprintf(stderr, "usage: bench_localize DATASET_DIR MAPS.sqlite [--map NAME] [--quick N] [--every K [--phase P]] [--ndt-eps E]\n");
     return 2;
   }
 
+  if (phase >= every) {
+    std::fprintf(stderr, "bench_localize: --phase %zu must be below --every %zu\n", phase, every);
+    return 2;
+  }
   const pl::Dataset ds = pl::open_dataset(dir);
   if (!ds.has_ground_truth()) {
     std::fprintf(stderr, "bench_localize: %s has no ground truth\n", dir.c_str());
@@ -228,7 +235,7 @@ int main(int argc, char** argv) try {
   std::vector<std::size_t> scans;  // the odd-numbered frames (every K-th of them: the drive K times faster)
   for (std::size_t i = 0, odd = 0; i < ds.size(); ++i) {
     const long f = ds.frame_ids.empty() ? static_cast<long>(i) : ds.frame_ids[i];
-    if (f % 2 == 1 && odd++ % every == 0) scans.push_back(i);
+    if (f % 2 == 1 && odd++ % every == phase) scans.push_back(i);
   }
   if (quick > 0 && quick < scans.size()) scans.resize(quick);
   if (scans.size() < 2) {

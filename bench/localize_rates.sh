@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The localizer on real data at one to four times the speed: drive 0005's odd scans (map from the
 # even ones at their OXTS poses, 16 of 64 beams, LiDAR only, started from the first scan's pose with
-# no velocity), keeping every k-th -- the same street driven k times faster -- with and without LiDAR
+# no velocity), keeping every k-th -- the same street driven k times faster, each of its k phases
+# (every k-th from the first, from the second, ...) a drive of its own, their scans summed into one row -- with and without LiDAR
 # odometry, with and without motion compensation (map and scans), and pcl::IterativeClosestPoint on
 # the same scans from the same start (bench_localize --every K); then kidnappings (25 to 40 odd scans,
 # 20 to 33 m, cut out; with the clock running on, and closed over the cut: no hint at all), and global
@@ -25,8 +26,7 @@ echo "| run | scans | APE mean | median | max | > 0.5 m | of them ok | ok / degr
 echo "|---|---|---|---|---|---|---|---|---|---|---|"
 for lo in on off; do
   for k in 1 2 3 4; do
-    awk -v k="$k" '(NR - 1) % k == 0' "$k05/gt_odd.txt" >"$k05/rates/gt_$k.txt"
-    run "every $k, odometry $lo" "$k05/rates/gt_$k.txt" --every "$k" --lidar-odometry "$lo"
+    rate_phases "every $k, odometry $lo" "$k" "$k05/gt_odd.txt" --lidar-odometry "$lo"
   done
 done
 # Motion compensation: a map merged with --deskew on, scans localized with --deskew on.
@@ -38,7 +38,7 @@ if [[ ! -f "$k05/deskew.sqlite" ]]; then
   mv "$k05/deskew.sqlite.partial" "$k05/deskew.sqlite"
 fi
 for k in 1 2 3 4; do
-  db="$k05/deskew.sqlite" run "every $k, motion compensated" "$k05/rates/gt_$k.txt" --every "$k" --deskew on
+  db="$k05/deskew.sqlite" rate_phases "every $k, motion compensated" "$k" "$k05/gt_odd.txt" --deskew on
 done
 # Kidnappings: K scans, then N cut out.
 for cut in 30,25 20,40 10,30; do
@@ -57,10 +57,16 @@ echo
 echo "| pcl::IterativeClosestPoint (bench_localize) | APE mean | median | max | within 0.5 m | converged |"
 echo "|---|---|---|---|---|---|"
 if [[ -x "$bin/bench_localize" ]]; then
+  # Each phase in its own run; the row sums their scans (the median is each phase's, listed).
   for k in 1 2 3 4; do
-    "$bin/bench_localize" "$drive" "$k05/maps.sqlite" --map k05 --every "$k" >"$k05/rates/pcl_$k.log"
-    awk -v k="$k" '/^pcl ICP point-to-point/ { printf "| every %d | %s | %s | %s | %s | %s |\n", k, $(NF-9), $(NF-8), $(NF-6), $(NF-4), $(NF-5) }' \
-      "$k05/rates/pcl_$k.log"
+    for ((p = 0; p < k; p++)); do
+      "$bin/bench_localize" "$drive" "$k05/maps.sqlite" --map k05 --every "$k" --phase "$p" >"$k05/rates/pcl_${k}_$p.log"
+    done
+    awk -v k="$k" '/^drive / { for (i = 1; i <= NF; i++) if ($i == "odd") n = $(i - 1) }
+      /^pcl ICP point-to-point/ { N += n; s += n * $(NF-9); med = med (med == "" ? "" : " / ") $(NF-8)
+        if ($(NF-6) > m) m = $(NF-6); w += n * $(NF-4) / 100; c += n * $(NF-5) / 100 }
+      END { printf "| every %d (%d phases) | %.3f | %s | %.3f | %.1f %% | %.1f %% |\n", k, k, s / N, med, m, 100 * w / N, 100 * c / N }' \
+      "$k05/rates/pcl_${k}_"*.log
   done
 else
   echo "(bench_localize not built: PCL missing)"

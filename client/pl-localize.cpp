@@ -19,9 +19,10 @@ namespace {
 using pl::Error;
 namespace cli = pl::cli;
 
-// The dataset indices of --scans all|even|odd, every --every-th of them, then --first K and --count N.
-std::vector<std::size_t> choose_scans(const pl::Dataset& ds, const std::string& which, std::size_t every, std::size_t first,
-                                      std::size_t count) {
+// The dataset indices of --scans all|even|odd, every --every-th of them from the --phase-th, then
+// --first K and --count N.
+std::vector<std::size_t> choose_scans(const pl::Dataset& ds, const std::string& which, std::size_t every, std::size_t phase,
+                                      std::size_t first, std::size_t count) {
   std::vector<std::size_t> scans;
   for (std::size_t i = 0; i < ds.size(); ++i) {
     const long f = ds.frame_ids.empty() ? static_cast<long>(i) : ds.frame_ids[i];
@@ -29,7 +30,7 @@ std::vector<std::size_t> choose_scans(const pl::Dataset& ds, const std::string& 
   }
   if (every > 1) {
     std::vector<std::size_t> kept;
-    for (std::size_t k = 0; k < scans.size(); k += every) kept.push_back(scans[k]);
+    for (std::size_t k = phase; k < scans.size(); k += every) kept.push_back(scans[k]);
     scans.swap(kept);
   }
   if (first >= scans.size())
@@ -76,7 +77,7 @@ int main(int argc, char** argv) {
   std::string dataset, server, db, out, kitti_out, timing_out, odometry = "auto", init, init_search = "on", scans = "all";
   long long version = 0;
   int beams = 0;
-  std::size_t every = 1, first = 0, count = std::numeric_limits<std::size_t>::max();
+  std::size_t every = 1, phase = 0, first = 0, count = std::numeric_limits<std::size_t>::max();
   bool realtime = false;
   app.add_option("--dataset", dataset, "the drive to localize (a dataset folder)")->required()->type_name("DIR");
   auto* server_opt = app.add_option("--server", server, "pl-server's address (http://HOST:PORT)")->type_name("URL");
@@ -100,6 +101,8 @@ int main(int argc, char** argv) {
   cli::choice(app, "--lidar-odometry", lidar_odometry, "LiDAR odometry where no other odometry covers the motion", {"on", "off"});
   cli::choice(app, "--scans", scans, "which scans", {"all", "even", "odd"});
   cli::number(app, "--every", every, "keep every k-th of those scans (the same drive k times faster)", cli::between(1, 1000));
+  cli::number(app, "--phase", phase, "with --every K, start at the P-th of those scans, 0 to K-1 (each phase is one of "
+              "the K drives interleaved in the recording)", cli::at_least(0));
   std::vector<std::size_t> cut;
   std::string cut_clock = "keep";
   app.add_option("--cut", cut, "leave out N scans after the K-th of those kept (the vehicle moved while blind)")
@@ -126,6 +129,9 @@ int main(int argc, char** argv) {
 
   tool.body([&] {
     if (server.empty() == db.empty()) throw Error("give exactly one of --server URL (pl-server) or --db FILE (a local map store)");
+    if (phase >= every)
+      throw Error("--phase " + std::to_string(phase) + " must be below --every " + std::to_string(every) +
+                  ": the phases of --every K are 0 to K-1 (run pl-localize --help)");
     const pl::Dataset ds = pl::open_dataset(dataset);
     const int sensor = ds.meta.sensor.beams;
     if (beams == 0) beams = sensor;
@@ -136,7 +142,7 @@ int main(int argc, char** argv) {
     lc.scan.sensor_beams = sensor;
     if (version > 0) cfg.tiles.version = version;
     pl::client::ReplayOptions replay;
-    replay.scans = choose_scans(ds, scans, every, first, count);
+    replay.scans = choose_scans(ds, scans, every, phase, first, count);
     if (!cut.empty()) {
       if (cut[0] < 1 || cut[0] + cut[1] >= replay.scans.size())
         throw Error("--cut " + std::to_string(cut[0]) + "," + std::to_string(cut[1]) + ": keep at least one scan before and after the cut (of " +

@@ -1,6 +1,9 @@
 #include "pl/client/lidar_odometry.hpp"
 
+#include <cmath>
+
 #include "pl/common/error.hpp"
+#include "pl/common/pose.hpp"
 #include "pl/registration/normals.hpp"
 #include "pl/registration/pose_search.hpp"
 
@@ -22,17 +25,32 @@ void LidarOdometry::reset() {
 }
 
 registration::IcpResult LidarOdometry::track(const std::vector<Eigen::Vector3f>& points, const Eigen::Isometry3d& guess,
-                                             bool wide) const {
+                                             bool wide, double yaw_range_deg) const {
   registration::IcpResult r;
   if (!fine_) {
     r.reject_reason = "no earlier scan";
     return r;
   }
+  const int headings = cfg_.seed_yaw_deg > 0 ? static_cast<int>(std::floor(std::min(yaw_range_deg, cfg_.max_yaw_deg) / cfg_.seed_yaw_deg)) : 0;
+  wide = wide || headings > 0;
   if (wide && !coarse_) {
     coarse_ = std::make_unique<registration::PointMap>(fine_->anchor(), 2.0);
     coarse_->add(1, points_, normals_);
   }
-  r = wide ? registration::register_coarse_to_fine(*coarse_, *fine_, points, guess, cfg_.icp)
+  Eigen::Isometry3d start = guess;
+  if (headings > 0) {  // the heading of the best seed on the coarse map (turned about the vertical)
+    const std::vector<Eigen::Vector3f> sparse = registration::subsample(points, 400);
+    const registration::IcpConfig coarse = registration::coarse_icp(cfg_.icp);
+    double best = -1.0;
+    for (int k = -headings; k <= headings; ++k) {
+      Eigen::Isometry3d seed = guess;
+      seed.linear() = rotation_from_vector(Eigen::Vector3d(0, 0, k * cfg_.seed_yaw_deg * M_PI / 180.0)) * guess.linear();
+      const registration::IcpResult c = registration::register_scan(*coarse_, sparse, seed, coarse);
+      const double score = registration::registration_score(c);
+      if (score > best) best = score, start = c.pose;
+    }
+  }
+  r = wide ? registration::register_coarse_to_fine(*coarse_, *fine_, points, start, cfg_.icp)
            : registration::register_scan(*fine_, points, guess, cfg_.icp);
   if (r.accepted && r.inlier_share < cfg_.min_inlier_share) {
     r.accepted = false;

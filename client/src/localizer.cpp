@@ -41,6 +41,15 @@ double registration_sigma(const registration::IcpResult& r, double independent) 
   return std::sqrt(std::max(0.0, top)) * std::sqrt(std::max(1.0, static_cast<double>(r.pairs) / independent));
 }
 
+// The pose `measured` gives in the ground plane (position across the ground, heading), with the height,
+// roll and pitch of `predicted`.
+Eigen::Isometry3d in_ground_plane(const Eigen::Isometry3d& predicted, const Eigen::Isometry3d& measured) {
+  Eigen::Isometry3d out = predicted;
+  out.linear() = rotation_from_vector(Eigen::Vector3d(0, 0, yaw_of(measured) - yaw_of(predicted))) * predicted.linear();
+  out.translation().head<2>() = measured.translation().head<2>();
+  return out;
+}
+
 // How far b is turned from a about the vertical, radians (>= 0).
 double turn_between(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) { return std::abs(yaw_of(a.inverse() * b)); }
 
@@ -249,12 +258,13 @@ ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& 
   double t0 = now_ms();
   const Uncertainty motion = grow(t, prediction, true);
   if (cfg_.lidar_odometry && !prediction.odometry && !odometry_.empty() && 3.0 * motion.horizontal() <= m.coarse_basin_m &&
-      3.0 * motion.yaw <= m.coarse_basin_deg * kDeg) {
+      3.0 * motion.yaw <= cfg_.odometry.max_yaw_deg * kDeg) {
     const bool wide = 3.0 * motion.horizontal() > m.fine_basin_m || 3.0 * motion.yaw > m.fine_basin_deg * kDeg;
-    const registration::IcpResult odo = odometry_.track(points, guess, wide);
+    const double yaw_range_deg = wide ? std::max(3.0 * motion.yaw / kDeg, cfg_.odometry.seed_range_deg) : 0.0;
+    const registration::IcpResult odo = odometry_.track(points, guess, wide, yaw_range_deg);
     if (odo.accepted) {
       const double d = horizontal_distance(last_pose_, odo.pose);
-      guess = odo.pose;
+      guess = cfg_.odometry.planar ? in_ground_plane(guess, odo.pose) : odo.pose;
       // From a wide basin the increment is as uncertain as half the basin.
       const double step = m.odometry_sigma_m + m.odometry_share * d;
       const double g = wide ? std::max(step, motion.horizontal() / 2.0) : step;
@@ -268,7 +278,7 @@ ScanReport Localizer::register_at(double t, const std::vector<Eigen::Vector3f>& 
       // (a turn ending) constant velocity turned the scan by the old yaw rate.
       if (compensate) {
         scan_ = scan;
-        registration::compensate_motion(scan_, scale_motion(last_pose_.inverse() * odo.pose, cfg_.sweep_s / dt));
+        registration::compensate_motion(scan_, scale_motion(last_pose_.inverse() * guess, cfg_.sweep_s / dt));
         r.compensated = true;
       }
     }

@@ -181,6 +181,8 @@ TEST(ToolsCli, NumbersOutOfRangeAreRefusedNamingTheFlag) {
       {"pl-localize", "--dataset " + dir.path() + " --db x --map m" + out + " --max-range -5", "--max-range takes a number > 0", "pl-localize"},
       {"pl-localize", "--dataset " + dir.path() + " --db x --map m" + out + " --cache-mb -5", "--cache-mb takes a number > 0", "pl-localize"},
       {"pl-localize", "--dataset " + dir.path() + " --db x --map m" + out + " --fov 400", "--fov takes a number in (0, 360]", "pl-localize"},
+      {"pl-localize", "--dataset " + dir.path() + " --db x --map m" + out + " --every 3 --phase 3", "--phase 3 must be below --every 3",
+       "pl-localize"},
       {"pl-localize", "--dataset " + dir.path() + " --db x --map m --out /etc/hostname/poses.tum", "--out: cannot write /etc/hostname/poses.tum",
        "pl-localize"},
   };
