@@ -64,6 +64,7 @@ rate_phases() {
     localize "$label, phase $p" "$rates_out/gt_${k}_$p.txt" --every "$k" --phase "$p" "$@"
     names+=("$label, phase $p")
   done
-  summarize "$label ($k phases)" "${names[@]}"
+  if ((k > 1)); then label="$label, phases 0-$((k - 1))"; fi
+  summarize "$label" "${names[@]}"
 }
 

@@ -40,6 +40,10 @@ echo "== localize_rates: drive 0005 at 1-4x speed, LiDAR only, and a kidnapping"
 bash "$(dirname "$0")/localize_rates.sh" "$bin" "$root/build/bench"
 
 echo
+echo "== global_town: --init global (no pose) at 10 places of the simulated town loop, six months later, with traffic"
+bash "$(dirname "$0")/global_town.sh" "$bin" "$root/build/bench"
+
+echo
 echo "== localize_kitti00: the whole product on the KITTI 00 trajectory, all 4,541 scans (pl-sim data)"
 bash "$(dirname "$0")/localize_kitti00.sh" "$bin" "$root/build/bench"
 
