@@ -14,7 +14,11 @@ namespace {
 NormalEquations accumulate(const PointMap& map, const std::vector<Eigen::Vector3f>& scan, const Eigen::Matrix3f& R,
                            const Eigen::Vector3f& t, float max_d2, float k2) {
   NormalEquations eq;
-  for (const Eigen::Vector3f& s : scan) {
+  constexpr std::size_t ahead = 8;  // queries between a cell's prefetch and its lookup
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    if (i + ahead < scan.size()) map.prefetch(R * scan[i + ahead] + t);
+    if (i + ahead / 2 < scan.size()) map.prefetch_points(R * scan[i + ahead / 2] + t);
+    const Eigen::Vector3f& s = scan[i];
     const Eigen::Vector3f qr = R * s;
     const Eigen::Vector3f q = qr + t;
     const Neighbour nb = map.nearest(q, max_d2);

@@ -114,6 +114,17 @@ Neighbour PointMap::nearest(const Eigen::Vector3f& q, float max_dist2) const {
   return best;
 }
 
+void PointMap::prefetch(const Eigen::Vector3f& q) const {
+  const float inv = 1.0f / static_cast<float>(cell_);
+  cells_->prefetch(pack_cell(cell_coordinate(q.x(), inv), cell_coordinate(q.y(), inv), cell_coordinate(q.z(), inv)));
+}
+
+void PointMap::prefetch_points(const Eigen::Vector3f& q) const {
+  const float inv = 1.0f / static_cast<float>(cell_);
+  if (const Run* r = cells_->find(pack_cell(cell_coordinate(q.x(), inv), cell_coordinate(q.y(), inv), cell_coordinate(q.z(), inv))))
+    __builtin_prefetch(r->begin);
+}
+
 std::vector<MapPoint> PointMap::all_points() const {
   std::vector<MapPoint> out;
   out.reserve(points_);

@@ -47,6 +47,12 @@ class PointMap {
 
   // Nearest map point to q (anchor coordinates) within sqrt(max_dist2) (at most cell_m).
   Neighbour nearest(const Eigen::Vector3f& q, float max_dist2) const;
+  // Brings q's own cell into the cache: called a few queries ahead, it hides most of a lookup's wait
+  // for memory (the table is larger than the cache).
+  void prefetch(const Eigen::Vector3f& q) const;
+  // The second stage, a few queries later: q's own cell looked up (its slot now cached) and the
+  // first of its points brought in.
+  void prefetch_points(const Eigen::Vector3f& q) const;
 
   const Eigen::Vector3d& anchor() const { return anchor_; }
   double cell_m() const { return cell_; }
