@@ -67,14 +67,14 @@ struct Drive {
   }
 };
 
-// Scans of `surfaces` from the poses, every 0.1 s, localized from the first pose alone.
+// Scans of `surfaces` from the poses, every dt seconds, localized from `start` alone.
 Drive drive(Localizer& loc, const std::vector<Surface>& surfaces, const std::vector<Eigen::Isometry3d>& poses,
-            const Eigen::Isometry3d& start) {
+            const Eigen::Isometry3d& start, double dt = 0.1) {
   Drive d;
   loc.start(start, 0.0, nullptr);
   for (std::size_t i = 0; i < poses.size(); ++i) {
     const auto scan = pl::test::scan_of(surfaces, poses[i], 0.6, 60.0, static_cast<unsigned>(10 + i));
-    d.reports.push_back(loc.process_prepared(0.1 * static_cast<double>(i), scan));
+    d.reports.push_back(loc.process_prepared(dt * static_cast<double>(i), scan));
     d.truth.push_back(poses[i]);
   }
   return d;
@@ -225,12 +225,7 @@ TEST(Integrity, ABendEnteredFasterThanMomentumKnowsIsFollowed) {
     yaw += rate * 0.4;
     x += 3.2 * std::cos(yaw), y += 3.2 * std::sin(yaw);
   }
-  Drive d;
-  loc.start(poses.front(), 0.0, nullptr);
-  for (std::size_t i = 0; i < poses.size(); ++i) {
-    d.reports.push_back(loc.process_prepared(0.4 * static_cast<double>(i), pl::test::scan_of(surfaces, poses[i], 0.6, 60.0, 90u + i)));
-    d.truth.push_back(poses[i]);
-  }
+  const Drive d = drive(loc, surfaces, poses, poses.front(), 0.4);
   for (std::size_t i = 0; i < d.reports.size(); ++i) {
     EXPECT_TRUE(d.reports[i].fused_lidar) << "scan " << i << ": " << d.reports[i].note;
     EXPECT_LT(error_of(d.reports[i], d.truth[i]), 0.15) << "scan " << i;
