@@ -65,7 +65,7 @@ if [[ -x "$bin/bench_localize" ]]; then
     awk -v k="$k" '/^drive / { for (i = 1; i <= NF; i++) if ($i == "odd") n = $(i - 1) }
       /^pcl ICP point-to-point/ { N += n; s += n * $(NF-9); med = med (med == "" ? "" : " / ") $(NF-8)
         if ($(NF-6) > m) m = $(NF-6); w += n * $(NF-4) / 100; c += n * $(NF-5) / 100 }
-      END { printf "| every %d%s | %.3f | %s | %.3f | %.1f %% | %.1f %% |\n", k, k > 1 ? sprintf(", phases 0-%d", k - 1) : "", s / N, med, m, 100 * w / N, 100 * c / N }' \
+      END { printf "| every %d%s | %.3f | %s | %.3f | %.1f %% | %.1f %% |\n", k, (k > 1 ? sprintf(", phases 0-%d", k - 1) : ""), s / N, med, m, 100 * w / N, 100 * c / N }' \
       "$k05/rates/pcl_${k}_"*.log
   done
 else

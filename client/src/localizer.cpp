@@ -325,6 +325,7 @@ std::vector<registration::Candidate> Localizer::search(const std::vector<Eigen::
                                                       const Eigen::Isometry3d& guess, const Uncertainty& u, ScanReport& r) {
   const MotionConfig& m = cfg_.motion;
   const bool jumped = relocalizing_;
+  bool thinned = false;  // the region was too large for its seeds at their usual spacing
   std::vector<registration::Candidate> found;
   // The region round the prediction (not when there is none).
   if (!global_) {
@@ -341,12 +342,17 @@ std::vector<registration::Candidate> Localizer::search(const std::vector<Eigen::
     // Within the seed budget: the positions of the ellipse times the headings.
     const double headings = 2.0 * std::floor(s.yaw_range_deg / s.yaw_step_deg) + 1.0;
     const double positions = M_PI * s.along_m * s.across_m / (s.position_step_m * s.position_step_m);
-    if (positions * headings > m.max_seeds) s.position_step_m *= std::sqrt(positions * headings / m.max_seeds);
+    if (positions * headings > m.max_seeds) {
+      s.position_step_m *= std::sqrt(positions * headings / m.max_seeds);
+      thinned = true;
+    }
     found = registration::search_poses(coarse_->points_map(), map_->points_map(), points, guess, s, cfg_.icp);
   }
   // The places the scan looks like, any heading: within the reach of a relocalization, anywhere when
-  // there is no pose. Each is searched on the maps round it.
-  if (jumped && has_places()) {
+  // there is no pose, and whenever the region was too large for seeds at their spacing (after a long
+  // blind stretch: drive 0005 with 25 scans cut out and the clock running on, 5 s, the seeds were
+  // 5 m apart and whether one fell in the right basin was luck). Each is searched on the maps round it.
+  if ((jumped || thinned) && has_places()) {
     const PlaceConfig& pc = cfg_.places;
     // The scan levelled by the prediction's roll and pitch, as the places are.
     const Eigen::Matrix3d level = registration::levelling(guess);
