@@ -137,9 +137,9 @@ struct LocalizerConfig {
     // The kernel's final scale. With pairs already cut at delta (the map's 0.5 m cells), a wider kernel
     // keeps the pairs that pull a start 0.2-0.4 m off into the minimum; 0.3 m weighted 0.2 m residuals
     // by half and the registration stopped short. Drive 0005, LiDAR only, every 1st-4th odd scan (all
-    // k phases): APE mean 0.055 / 0.054 / 0.055 / 0.057 m at 0.5, 0.057 / 0.059 / 0.074 / 0.094 m at
-    // 0.3, 0.054 / 0.054 / 0.056 / 0.061 m at 0.7. Moving traffic pulls the other way (the demo's town
-    // loop, 12 movers: 0.032 m at 0.3, 0.033 at 0.5, 0.034 at 0.7).
+    // k phases; the odometry's kernel the same): APE mean 0.055 / 0.054 / 0.057 / 0.057 m at 0.5,
+    // 0.057 / 0.061 / 0.077 / 0.075 m at 0.3. 0.7 and 1.0 did about as well as 0.5; moving traffic pulls
+    // the other way (the demo's town loop, 12 movers: 0.032 m at 0.3, 0.033 at 0.5, 0.034 at 0.7).
     c.kernel_m = 0.5;
     c.max_iterations = 50;
     return c;
