@@ -44,9 +44,10 @@ for i in $(seq 0 9); do
                            END { printf "| %d | %s | %s | %s | %d | %.0f |", f, found ? "yes" : "no",
                                  found ? sprintf("%.3f", e) : "-", found ? found : "-", wrong, ms }' "$dir/global_$first.scans")
   echo "$row"
-  cut -d' ' -f3 "$dir/global_$first.scans" | head -1 >>"$dir/first_ms.txt.new"
-  [[ "$row" == *"| yes |"* ]] && found_all=$((found_all + 1))
-  wrong_all=$((wrong_all + $(awk '$4 == "ok" && $5 > 0.2' "$dir/global_$first.scans" | wc -l)))
+  IFS='|' read -r _ _ found _ _ wrong ms _ <<<"$row"
+  echo "$ms" >>"$dir/first_ms.txt.new"
+  [[ $found == " yes " ]] && found_all=$((found_all + 1))
+  wrong_all=$((wrong_all + wrong))
 done
 mv "$dir/first_ms.txt.new" "$dir/first_ms.txt"
 echo "found $found_all of 10; scans ok farther than 0.2 m: $wrong_all; first search median $(median <"$dir/first_ms.txt") ms"

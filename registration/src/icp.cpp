@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "pl/common/pose.hpp"
@@ -14,12 +15,22 @@ namespace {
 NormalEquations accumulate(const PointMap& map, const std::vector<Eigen::Vector3f>& scan, const Eigen::Matrix3f& R,
                            const Eigen::Vector3f& t, float max_d2, float k2) {
   NormalEquations eq;
-  constexpr std::size_t ahead = 8;  // queries between a cell's prefetch and its lookup
-  for (std::size_t i = 0; i < scan.size(); ++i) {
-    if (i + ahead < scan.size()) map.prefetch(R * scan[i + ahead] + t);
-    if (i + ahead / 2 < scan.size()) map.prefetch_points(R * scan[i + ahead / 2] + t);
-    const Eigen::Vector3f& s = scan[i];
-    const Eigen::Vector3f qr = R * s;
+  // Each point is rotated once, `ahead` queries before its lookup: its cell's slot is prefetched
+  // then, the cell's points halfway.
+  constexpr std::size_t ahead = 8;
+  std::array<Eigen::Vector3f, ahead> rotated;  // R s of points i .. i + ahead - 1, at slot index % ahead
+  const std::size_t n = scan.size();
+  for (std::size_t j = 0; j < std::min(ahead, n); ++j) {
+    rotated[j] = R * scan[j];
+    map.prefetch(rotated[j] + t);
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f qr = rotated[i % ahead];
+    if (i + ahead < n) {
+      rotated[i % ahead] = R * scan[i + ahead];
+      map.prefetch(rotated[i % ahead] + t);
+    }
+    if (i + ahead / 2 < n) map.prefetch_points(rotated[(i + ahead / 2) % ahead] + t);
     const Eigen::Vector3f q = qr + t;
     const Neighbour nb = map.nearest(q, max_d2);
     if (!nb.point) continue;

@@ -114,15 +114,15 @@ Neighbour PointMap::nearest(const Eigen::Vector3f& q, float max_dist2) const {
   return best;
 }
 
-void PointMap::prefetch(const Eigen::Vector3f& q) const {
+std::uint64_t PointMap::cell_of(const Eigen::Vector3f& q) const {
   const float inv = 1.0f / static_cast<float>(cell_);
-  cells_->prefetch(pack_cell(cell_coordinate(q.x(), inv), cell_coordinate(q.y(), inv), cell_coordinate(q.z(), inv)));
+  return pack_cell(cell_coordinate(q.x(), inv), cell_coordinate(q.y(), inv), cell_coordinate(q.z(), inv));
 }
 
+void PointMap::prefetch(const Eigen::Vector3f& q) const { cells_->prefetch(cell_of(q)); }
+
 void PointMap::prefetch_points(const Eigen::Vector3f& q) const {
-  const float inv = 1.0f / static_cast<float>(cell_);
-  if (const Run* r = cells_->find(pack_cell(cell_coordinate(q.x(), inv), cell_coordinate(q.y(), inv), cell_coordinate(q.z(), inv))))
-    __builtin_prefetch(r->begin);
+  if (const Run* r = cells_->find(cell_of(q))) __builtin_prefetch(r->begin);
 }
 
 std::vector<MapPoint> PointMap::all_points() const {

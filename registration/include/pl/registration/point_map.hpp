@@ -70,6 +70,7 @@ class PointMap {
   std::map<PartId, std::unique_ptr<Part>> parts_;
   std::unique_ptr<Cells> cells_;
   std::size_t points_ = 0;
+  std::uint64_t cell_of(const Eigen::Vector3f& q) const;  // the key of q's own cell
 };
 
 }  // namespace pl::registration
