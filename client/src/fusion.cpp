@@ -23,7 +23,11 @@ std::array<double, 6> steady_state_gain(const FusionConfig& cfg) {
   return k;
 }
 
-Fusion::Fusion(const FusionConfig& cfg) : gain_(steady_state_gain(cfg)), window_(std::max(1, cfg.momentum_window)) {}
+Fusion::Fusion(const FusionConfig& cfg)
+    : gain_(steady_state_gain(cfg)),
+      window_(std::max({1, cfg.momentum_window, cfg.momentum_plane_window})),
+      slow_window_(std::max(1, cfg.momentum_window)),
+      plane_window_(std::max(1, cfg.momentum_plane_window)) {}
 
 void Fusion::reset(const Eigen::Isometry3d& pose, double t, const OdometryBuffer* odometry) {
   odometry_ = odometry;
@@ -46,8 +50,21 @@ Eigen::Isometry3d Fusion::predict(double t) const {
     if (auto o = odometry_->at(t)) return correction_ * *o;
   // Momentum: odometry increments are missing, keep the recent velocity -- the window's motion
   // continued past its last pose at its constant twist.
-  if (poses_.size() < 2 || times_.back() <= times_.front()) return poses_.back();
-  return poses_.back() * scale_motion(poses_.front().inverse() * poses_.back(), (t - times_.back()) / (times_.back() - times_.front()));
+  const std::size_t n = poses_.size();
+  if (n < 2 || times_.back() <= times_.front()) return poses_.back();
+  // The motion of the last w intervals continued past the last pose.
+  const auto continued = [&](std::size_t w) {
+    const std::size_t a = n - 1 - std::min(w, n - 1);
+    return Eigen::Isometry3d(poses_.back() * scale_motion(poses_[a].inverse() * poses_.back(), (t - times_.back()) / (times_.back() - times_[a])));
+  };
+  const Eigen::Isometry3d slow = continued(static_cast<std::size_t>(slow_window_));
+  if (plane_window_ == slow_window_) return slow;
+  // In the ground plane from its window, out of it from the other.
+  const Eigen::Isometry3d plane = continued(static_cast<std::size_t>(plane_window_));
+  Eigen::Isometry3d out = slow;
+  out.linear() = Eigen::AngleAxisd(yaw_of(plane) - yaw_of(slow), Eigen::Vector3d::UnitZ()) * slow.linear();
+  out.translation().head<2>() = plane.translation().head<2>();
+  return out;
 }
 
 void Fusion::remember(double ts, const Eigen::Isometry3d& x) {
@@ -93,5 +110,7 @@ Eigen::Isometry3d Fusion::correct(double ts, const Eigen::Isometry3d& measured) 
 }
 
 void Fusion::coast(double ts) { remember(ts, predict(ts)); }
+
+void Fusion::coast(double ts, const Eigen::Isometry3d& pose) { remember(ts, pose); }
 
 }  // namespace pl::client

@@ -132,6 +132,37 @@ TEST(Fusion, MomentumWithoutOdometry) {
   EXPECT_NEAR(p.translation().norm(), 5.0, 0.01);
 }
 
+TEST(Fusion, MomentumFollowsBrakingInThePlaneAndSmoothsHeight) {
+  // Braking: steps of 8, 7, 6 m (scans 0.8 s apart), and a height that jitters by 5 cm from scan
+  // to scan as a 16-beam registration's does.
+  pl::client::Fusion f;
+  f.reset(pl::make_pose(0, 0, 0.00, 0, 0, 0.0), 0.0, nullptr);
+  f.correct(0.8, pl::make_pose(8, 0, 0.05, 0, 0, 0.0));
+  f.correct(1.6, pl::make_pose(15, 0, 0.00, 0, 0, 0.0));
+  f.correct(2.4, pl::make_pose(21, 0, 0.05, 0, 0, 0.1));
+  const Eigen::Isometry3d p = f.predict(3.2);
+  // In the ground plane, the last interval continued: 6 m further, turned a further 0.1 rad.
+  EXPECT_NEAR(p.translation().x(), 21.0 + 6.0 * std::cos(0.1), 0.05);
+  EXPECT_NEAR(pl::yaw_of(p), 0.2, 1e-9);
+  // The three intervals' average (7 m a scan) would have put it a metre further.
+  pl::client::FusionConfig three;
+  three.momentum_plane_window = 3;
+  pl::client::Fusion g(three);
+  g.reset(pl::make_pose(0, 0, 0.00, 0, 0, 0.0), 0.0, nullptr);
+  g.correct(0.8, pl::make_pose(8, 0, 0.05, 0, 0, 0.0));
+  g.correct(1.6, pl::make_pose(15, 0, 0.00, 0, 0, 0.0));
+  g.correct(2.4, pl::make_pose(21, 0, 0.05, 0, 0, 0.1));
+  EXPECT_GT((g.predict(3.2).translation() - p.translation()).norm(), 0.9);
+  // The height from the three intervals: 5 cm over three scans continued, not the last jump of 5 cm.
+  EXPECT_NEAR(p.translation().z(), 0.05 + 0.05 / 3.0, 0.005);
+  // A scan not fused whose motion another measurement gave (LiDAR odometry: 5 m on): momentum goes
+  // on from there, 5 m a scan, not from its own extrapolation of 6 m a scan.
+  f.coast(3.2, pl::make_pose(21 + 5 * std::cos(0.1), 5 * std::sin(0.1), 0.05, 0, 0, 0.1));
+  const Eigen::Isometry3d q = f.predict(4.0);
+  EXPECT_NEAR(q.translation().x(), 21 + 10 * std::cos(0.1), 0.05);  // from its own: 21 + 6 cos 0.1 + 6 cos 0.2
+  EXPECT_NEAR(pl::yaw_of(q), 0.1, 1e-9);
+}
+
 // --- start-up ------------------------------------------------------------------------------------
 
 TEST(Localizer, StartsFiveMetresAndThirtyDegreesOff) {

@@ -48,6 +48,7 @@ struct MotionConfig {
   double odometry_sigma_m = 0.03;   // LiDAR odometry: per scan, plus a share of the distance
   double odometry_share = 0.01;
   double odometry_sigma_deg = 0.15;
+  double odometry_gate_m = 1.0;     // from the fine basin an increment this far (or 3 sigma + gate floor) off is a slide
   double fix_floor_m = 0.03;        // a fix is never taken as better than this (1 sigma)
   double fix_floor_deg = 0.1;
   double fine_basin_m = 0.45;       // 3 sigma within this: plain ICP on the fine map
@@ -277,6 +278,10 @@ class Localizer {
   Eigen::Isometry3d last_pose_ = Eigen::Isometry3d::Identity();
   int unfused_streak_ = 0, unverified_streak_ = 0;
   bool lost_ = false;
+  // The last ok scan (or the start pose): where it put the vehicle, when, and its bound.
+  bool have_fix_ = false;
+  double fix_t_ = 0, fix_protection_m_ = 0;
+  Eigen::Isometry3d fix_pose_ = Eigen::Isometry3d::Identity();
   std::vector<double> recent_share_, recent_rms_;  // of verified scans, for the relative checks
   std::vector<Eigen::Vector3f> scan_;              // the scan between register_at and fuse
 
