@@ -355,6 +355,67 @@ TEST(SimDrive, SameSeedSameBytesWhateverTheThreads) {
   EXPECT_NO_THROW(simulate(o));
 }
 
+TEST(SimTruth, AnInsTruthWandersAsConfiguredAndTheExactOneDoesNot) {
+  // A straight drive at 10 m/s, 10 Hz, for an hour: long enough for the processes' statistics.
+  std::vector<pl::Pose, Eigen::aligned_allocator<pl::Pose>> truth;
+  std::vector<double> times;
+  for (int i = 0; i < 36000; ++i) {
+    times.push_back(0.1 * i);
+    truth.push_back(pl::make_pose(1.0 * i, 0.0, 0.0, 0, 0, 0.0));
+  }
+  TruthErrorConfig cfg;
+  EXPECT_EQ(ins_truth(truth, times, cfg, 1).back().matrix(), truth.back().matrix());  // scale 0: exact
+  cfg.scale = 1.0;
+  const auto ins = ins_truth(truth, times, cfg, 1);
+  ASSERT_EQ(ins.size(), truth.size());
+  std::vector<double> along, across, height, step;
+  for (std::size_t i = 0; i < ins.size(); ++i) {
+    const Eigen::Vector3d e = ins[i].translation() - truth[i].translation();
+    along.push_back(e.x() - cfg.along_share * 1.0 * static_cast<double>(i));  // the wander: less the 3 % short
+    across.push_back(e.y()), height.push_back(e.z());
+    if (i) step.push_back(along[i] - along[i - 1]);
+  }
+  const auto rms = [](const std::vector<double>& v) {
+    double s = 0;
+    for (double x : v) s += x * x;
+    return std::sqrt(s / static_cast<double>(v.size()));
+  };
+  EXPECT_NEAR(rms(height), cfg.height_m, 0.2 * cfg.height_m);
+  EXPECT_NEAR(rms(across), cfg.across_m, 0.25 * cfg.across_m);
+  EXPECT_NEAR(rms(along), cfg.along_m, 0.3 * cfg.along_m);  // 10 s: fewer independent samples
+  // From one scan to the next the along-track error moves smoothly (0.1 s / 10 s of its size) plus
+  // the jitter, twice: centimetres, not the decimetres a rough process of that size would jump.
+  EXPECT_NEAR(rms(step), std::sqrt(2.0 * cfg.jitter_m * cfg.jitter_m + std::pow(0.1 / cfg.along_s * cfg.along_m, 2)), 0.005);
+  // The height wanders smoothly: a second apart the errors correlate as (1 + 1/tau) exp(-1/tau).
+  double c = 0, n = 0;
+  for (std::size_t i = 10; i < height.size(); ++i) c += height[i] * height[i - 10], n += height[i - 10] * height[i - 10];
+  EXPECT_NEAR(c / n, (1.0 + 1.0 / cfg.height_s) * std::exp(-1.0 / cfg.height_s), 0.05);
+  // Along the track it runs 3 % short of the distance travelled, as drive 0005's truth does.
+  EXPECT_NEAR(ins.back().translation().x() / truth.back().translation().x(), 1.0 + cfg.along_share, 0.001);
+  // The same seed gives the same truth; another seed another one.
+  EXPECT_EQ(ins_truth(truth, times, cfg, 1)[500].matrix(), ins[500].matrix());
+  EXPECT_NE(ins_truth(truth, times, cfg, 2)[500].matrix(), ins[500].matrix());
+  cfg.scale = -1.0;
+  EXPECT_THROW(ins_truth(truth, times, cfg, 1), pl::Error);
+}
+
+TEST(SimDrive, AnInsTruthChangesThePosesWrittenAndNotTheScans) {
+  TempDir dir;
+  SimOptions o = loop_drive(5, dir / "exact");
+  simulate(o);
+  o.out_dir = dir / "ins";
+  o.truth.scale = 1.0;
+  simulate(o);
+  EXPECT_EQ(pl::test::read_file(dir / "exact/velodyne/000004.bin"), pl::test::read_file(dir / "ins/velodyne/000004.bin"));
+  const pl::Dataset a = pl::open_dataset(dir / "exact"), b = pl::open_dataset(dir / "ins");
+  ASSERT_EQ(b.ground_truth.size(), 5u);
+  double largest = 0;
+  for (std::size_t i = 0; i < 5; ++i)
+    largest = std::max(largest, (a.ground_truth.poses[i].translation() - b.ground_truth.poses[i].translation()).norm());
+  EXPECT_GT(largest, 0.005);
+  EXPECT_LT(largest, 3.0);
+}
+
 TEST(SimDrive, SpeedScaleDrivesTheRouteFasterAtTheSameScanRate) {
   TempDir dir;
   SimOptions o = loop_drive(6, dir / "slow");

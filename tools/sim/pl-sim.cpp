@@ -29,6 +29,9 @@ int main(int argc, char** argv) {
   pl::cli::number(app, "--seed", o.world.seed, "world and noise seed; same seed and options, same bytes", pl::cli::at_least(0));
   pl::cli::choice(app, "--world", world, "world preset (default: town, estate for --route estate)", {"town", "estate"});
   pl::cli::number(app, "--epoch", o.world.epoch, "1: the same place six months later", pl::cli::between(0, 1));
+  std::string backdrop = "on";
+  pl::cli::choice(app, "--backdrop", backdrop, "on: the town goes on behind the street (the next street's houses behind the back "
+                  "gardens); off: the street alone, as the first simulator's world", {"on", "off"});
   pl::cli::number(app, "--change-share", o.world.change_share, "share of movable things changed in epoch 1", pl::cli::between(0, 1));
   pl::cli::number(app, "--traffic", o.traffic.count, "moving vehicles and pedestrians", pl::cli::between(0, 1000));
   pl::cli::number(app, "--truck-share", o.traffic.truck_share, "share of the vehicles that are 2.5 m x 10 m trucks",
@@ -40,6 +43,9 @@ int main(int argc, char** argv) {
                   "point_times/ (as drivers give them); off: every ray from one pose", {"on", "off"});
   pl::cli::number(app, "--calibration-error", o.calibration_error, "per-laser elevation, azimuth and range errors like a "
                   "calibrated HDL-64E's (0.12 deg, 0.12 deg, 2 cm sigma), times this; 0: a perfect sensor", pl::cli::between(0, 10));
+  pl::cli::number(app, "--truth-error", o.truth.scale, "the ground truth written as a GNSS/INS reports it, with the errors "
+                  "of drive 0005's OXTS against its LiDAR (smooth wanders of 0.1 m in height over 2 s and 0.2 m along the track "
+                  "over 10 s, 2 cm jitter), times this; 0: the exact poses the scans were taken from", pl::cli::between(0, 10));
   pl::cli::number(app, "--fov", o.fov_deg, "180: the rear half is blocked by the vehicle body (360 or 180)", pl::cli::between(180, 360));
   app.add_option("--gnss-profile", o.gnss_profile, "replay a real receiver's accuracy, status and satellites (KITTI OXTS folder)")
       ->type_name("DIR");
@@ -54,6 +60,7 @@ int main(int argc, char** argv) {
   tool.body([&] {
     if (route.empty() == o.trajectory_path.empty()) throw pl::Error("give either --route loop|estate or --trajectory FILE");
     o.sweep = sweep == "on";
+    o.world.backdrop = backdrop == "on";
     if (o.lidar_poses && o.trajectory_path.empty()) throw pl::Error("--lidar-poses goes with --trajectory FILE");
     if (!route.empty()) {
       o.route = route;
@@ -72,6 +79,7 @@ int main(int argc, char** argv) {
                 o.calibration_error);
     std::printf("  encoder: %zu samples at 100 Hz; gps: %zu fixes (%s)\n", r.encoder_samples, r.gps_fixes, r.gps_mix.c_str());
     if (o.traffic.count) std::printf("  traffic: %d agents\n", o.traffic.count);
+    if (o.truth.scale > 0) std::printf("  ground truth: as a GNSS/INS reports it (errors x%g)\n", o.truth.scale);
     if (!o.preview.empty()) std::printf("  preview: %s\n", o.preview.c_str());
     if (!o.map_out.empty()) std::printf("  reference cloud: %s (%zu points)\n", o.map_out.c_str(), r.map_points);
     return 0;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 
 #include "pl/common/error.hpp"
@@ -151,6 +152,56 @@ std::vector<GpsFix> simulate_gps(const SimTrajectory& path, double t0, double t1
     fix.std_m = sigma;
     fix.status = status;
     out.push_back(fix);
+  }
+  return out;
+}
+
+std::vector<Pose, Eigen::aligned_allocator<Pose>> ins_truth(const std::vector<Pose, Eigen::aligned_allocator<Pose>>& truth,
+                                                          const std::vector<double>& times, const TruthErrorConfig& cfg,
+                                                          std::uint64_t seed) {
+  if (truth.size() != times.size()) throw Error("ins_truth: one time per pose");
+  if (!(cfg.scale >= 0) || !std::isfinite(cfg.scale)) throw Error("the truth error scale must be 0 or more");
+  if (cfg.scale == 0.0 || truth.empty()) return truth;
+  std::mt19937_64 rng(seed * 0xD1B54A32D192ED03ull + 0x7F4A7C15ull);
+  std::normal_distribution<double> unit(0.0, 1.0);
+  // A smooth wander: a first-order Gauss-Markov process low-passed once more with the same time
+  // constant (a critically damped second-order process). An INS's error moves smoothly from scan to
+  // scan; a first-order process of the same size moved 8 cm between scans 0.1 s apart along the track.
+  struct Wander {
+    double sigma, tau, x1 = 0, x2 = 0;  // sigma: of the output (x2), whose variance is half x1's
+    void step(double dt, double n) {
+      const double a = std::exp(-std::max(0.0, dt) / tau);
+      x1 = a * x1 + std::sqrt(2.0) * sigma * std::sqrt(std::max(0.0, 1.0 - a * a)) * n;
+      x2 = a * x2 + (1.0 - a) * x1;
+    }
+  };
+  const double k = cfg.scale;
+  Wander along{k * cfg.along_m, cfg.along_s}, across{k * cfg.across_m, cfg.across_s}, height{k * cfg.height_m, cfg.height_s},
+      heading{k * cfg.heading_deg * M_PI / 180.0, cfg.heading_s};
+  for (Wander* w : {&along, &across, &height, &heading})  // from a stationary state: ten time constants run in
+    for (int i = 0; i < 200; ++i) w->step(w->tau / 20.0, unit(rng));
+  std::vector<Pose, Eigen::aligned_allocator<Pose>> out;
+  out.reserve(truth.size());
+  double travelled = 0.0;
+  for (std::size_t i = 0; i < truth.size(); ++i) {
+    if (i) {
+      travelled += (truth[i].translation() - truth[i - 1].translation()).head<2>().norm();
+      const double dt = times[i] - times[i - 1];
+      for (Wander* w : {&along, &across, &height, &heading}) w->step(dt, unit(rng));
+    }
+    const double jitter = k * cfg.jitter_m * unit(rng);
+    const Pose& p = truth[i];
+    Eigen::Vector3d fwd = p.linear().col(0);
+    fwd.z() = 0.0;
+    fwd = fwd.norm() > 1e-9 ? fwd.normalized() : Eigen::Vector3d::UnitX();
+    const Eigen::Vector3d left(-fwd.y(), fwd.x(), 0.0);
+    Pose q = p;
+    q.translation() += (along.x2 + jitter + k * cfg.along_share * travelled) * fwd + across.x2 * left + Eigen::Vector3d(0, 0, height.x2);
+    const double jr = k * cfg.attitude_jitter_deg * M_PI / 180.0;
+    const Eigen::Vector3d shake(jr * unit(rng), jr * unit(rng), jr * unit(rng));  // roll, pitch, yaw noise of the INS
+    q.linear() = Eigen::AngleAxisd(heading.x2, Eigen::Vector3d::UnitZ()) * p.linear() *
+                 Eigen::AngleAxisd(shake.norm(), shake.norm() > 0 ? Eigen::Vector3d(shake.normalized()) : Eigen::Vector3d::UnitZ());
+    out.push_back(q);
   }
   return out;
 }

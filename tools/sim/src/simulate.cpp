@@ -103,6 +103,7 @@ SimReport simulate(const SimOptions& o) {
   LidarModel lidar = lidar_model(o.lidar);
   lidar.fov_deg = o.fov_deg;
   if (!(o.calibration_error >= 0)) throw Error("the calibration error scale must be 0 or more");
+  if (!(o.truth.scale >= 0) || !std::isfinite(o.truth.scale)) throw Error("the truth error scale must be 0 or more");
   // The sensor's own errors: one set per sensor (seed), the same in every epoch and drive of it.
   lidar.laser_errors = draw_laser_errors(lidar.vertical_deg.size(), o.calibration_error, o.world.seed);
   GpsConfig gps_cfg = o.gps;
@@ -175,10 +176,13 @@ SimReport simulate(const SimOptions& o) {
   // Ground truth and times.
   std::string times_txt, poses_txt;
   char buf[512];
-  for (double t : scan_times) {
-    std::snprintf(buf, sizeof(buf), "%.6f\n", t - t0);
+  std::vector<Pose, Eigen::aligned_allocator<Pose>> truth;
+  for (double t : scan_times) truth.push_back(traj.pose_at(t));
+  truth = ins_truth(truth, scan_times, o.truth, o.world.seed + 1000003ull * static_cast<std::uint64_t>(o.world.epoch));
+  for (std::size_t i = 0; i < scan_times.size(); ++i) {
+    std::snprintf(buf, sizeof(buf), "%.6f\n", scan_times[i] - t0);
     times_txt += buf;
-    const auto m = traj.pose_at(t).matrix();
+    const auto m = truth[i].matrix();
     std::snprintf(buf, sizeof(buf), "%.9f %.9f %.9f %.6f %.9f %.9f %.9f %.6f %.9f %.9f %.9f %.6f\n", m(0, 0), m(0, 1),
                   m(0, 2), m(0, 3), m(1, 0), m(1, 1), m(1, 2), m(1, 3), m(2, 0), m(2, 1), m(2, 2), m(2, 3));
     poses_txt += buf;

@@ -27,6 +27,7 @@ struct SimOptions {
   // firing, their times written to point_times/); false: every ray from the scan time's pose.
   bool sweep = true;
   double calibration_error = 1.0;  // per-laser errors like a real HDL-64E's, times this (0: none)
+  TruthErrorConfig truth;          // the ground truth written: exact (scale 0) or as an INS's
   std::string gnss_profile;
   GeoPoint origin{49.011212804, 8.422885042, 112.83};
   EncoderConfig encoder;

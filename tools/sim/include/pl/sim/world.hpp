@@ -43,6 +43,9 @@ struct WorldConfig {
   double road_half_width = 6.0;
   double ground_band = 80.0;    // ground modelled within this distance of the path
   double ground_cell = 4.0;
+  // The town: the next street's houses behind the back gardens (the town goes on behind the street:
+  // a real scan's returns at 30-80 m). Off: the street alone, as the first simulator's world was.
+  bool backdrop = true;
 };
 
 // What a shape of the scene belongs to: `Primitive::object` indexes a table of these.
