@@ -262,9 +262,9 @@ int main(int argc, char** argv) try {
   char buf[512];
   std::snprintf(buf, sizeof buf,
                 "default LocalizerConfig: 16 of %d beams, %.1f m voxels, range %.0f m, ROI %.0f m, cells %.2f m, "
-                "pairs <= %.1f m, kernel %.2f m, <= %d iterations, momentum over %d scans (%d in the ground plane)",
+                "pairs <= %.1f m, kernel %.2f m, <= %d iterations, momentum over %d scans (%.1f s in the ground plane)",
                 sensor_beams, cfg.scan.voxel_m, cfg.scan.max_range_m, cfg.roi_radius_m, cfg.map.cell_m, cfg.icp.max_pair_m,
-                cfg.icp.kernel_m, cfg.icp.max_iterations, cfg.fusion.momentum_window, cfg.fusion.momentum_plane_window);
+                cfg.icp.kernel_m, cfg.icp.max_iterations, cfg.fusion.momentum_window, cfg.fusion.momentum_plane_s);
   ours.name = "ours (pl::client::Localizer)";
   ours.settings = buf;
   floor.name = "ours, each scan from its ground truth";

@@ -79,20 +79,25 @@ def inv_mul(a, b):  # a^-1 b for 3x4 rigid poses
     return out
 
 def step_errors(est, gt):
-    te, re = [], []
+    te, re, along, steps = [], [], [], []
     for i in range(1, min(len(est), len(gt))):
         de, dg = inv_mul(est[i - 1], est[i]), inv_mul(gt[i - 1], gt[i])
         e = inv_mul(dg, de)
         te.append(math.sqrt(sum(e[r][3] ** 2 for r in range(3))))
+        along.append(e[0][3])
+        steps.append(math.sqrt(sum(dg[r][3] ** 2 for r in range(3))))
         tr = (e[0][0] + e[1][1] + e[2][2] - 1) / 2
         re.append(math.degrees(math.acos(max(-1.0, min(1.0, tr)))))
-    return te, re
+    return te, re, 100 * sum(along) / max(1e-9, sum(steps))
 
 figures = {}
 for name in ["real", "sim", "sim-ins", "sim-first-wave"]:
     rows = list(csv.DictReader(open(f"{out}/{name}.csv")))
     col = lambda c: st.median(float(r[c]) for r in rows)
-    te, re = step_errors(poses(f"{out}/{name}.loam.txt"), poses(f"{out}/{name}.gt.txt"))
+    est, gt = poses(f"{out}/{name}.loam.txt"), poses(f"{out}/{name}.gt.txt")
+    te, re, along_pct = step_errors(est, gt)
+    # How far the truth's height departs from the LiDAR odometry's over the drive (both from the first scan).
+    height = max(abs((e[2][3] - est[0][2][3]) - (g[2][3] - gt[0][2][3])) for e, g in zip(est, gt))
     ape = json.load(open(f"{out}/{name}.ape.json"))
     figures[name] = {
         "points a scan after preparation (median)": col("points"),
@@ -101,6 +106,8 @@ for name in ["real", "sim", "sim-ins", "sim-first-wave"]:
         "conditioning (median)": col("conditioning"),
         "scan-to-scan translation error, cm (median)": 100 * st.median(te),
         "scan-to-scan rotation error, deg (median)": st.median(re),
+        "odometry's steps longer than the truth's, %": along_pct,
+        "truth's height off the odometry's, m (max)": height,
         "APE mean, m": ape["mean"],
     }
 print(f"{'':46} {'real 0005':>10} {'sim':>10} {'sim/real':>9} {'INS truth':>10} {'ins/real':>9} {'one pose':>11} {'op/real':>8}")

@@ -119,8 +119,9 @@ int main(int argc, char** argv) {
   cli::number(app, "--max-iterations", lc.icp.max_iterations, "ICP iterations at most", cli::between(1, 10000));
   cli::number(app, "--kernel", lc.icp.kernel_m, "Geman-McClure kernel floor, m", cli::above(0));
   cli::number(app, "--momentum-window", lc.fusion.momentum_window, "scan intervals of the momentum's height, roll and pitch velocity", cli::between(1, 100));
-  cli::number(app, "--momentum-plane-window", lc.fusion.momentum_plane_window,
-              "scan intervals of the momentum's velocity in the ground plane (along, across, yaw)", cli::between(1, 100));
+  cli::number(app, "--momentum-plane-s", lc.fusion.momentum_plane_s,
+              "seconds of the momentum's velocity in the ground plane (along, across, yaw): the last scan intervals within it, at "
+              "least one", cli::between(0, 100));
   cli::output_file(app, "--out", out, "the fused poses (TUM)")->required();
   cli::output_file(app, "--kitti-out", kitti_out, "one pose per scan (KITTI)");
   cli::output_file(app, "--timing", timing_out, "per-scan CSV: times, pairs, health");

@@ -25,9 +25,9 @@ std::array<double, 6> steady_state_gain(const FusionConfig& cfg) {
 
 Fusion::Fusion(const FusionConfig& cfg)
     : gain_(steady_state_gain(cfg)),
-      window_(std::max({1, cfg.momentum_window, cfg.momentum_plane_window})),
+      window_(std::max(1, cfg.momentum_window)),
       slow_window_(std::max(1, cfg.momentum_window)),
-      plane_window_(std::max(1, cfg.momentum_plane_window)) {}
+      plane_s_(std::max(0.0, cfg.momentum_plane_s)) {}
 
 void Fusion::reset(const Eigen::Isometry3d& pose, double t, const OdometryBuffer* odometry) {
   odometry_ = odometry;
@@ -58,9 +58,11 @@ Eigen::Isometry3d Fusion::predict(double t) const {
     return Eigen::Isometry3d(poses_.back() * scale_motion(poses_[a].inverse() * poses_.back(), (t - times_.back()) / (times_.back() - times_[a])));
   };
   const Eigen::Isometry3d slow = continued(static_cast<std::size_t>(slow_window_));
-  if (plane_window_ == slow_window_) return slow;
-  // In the ground plane from its window, out of it from the other.
-  const Eigen::Isometry3d plane = continued(static_cast<std::size_t>(plane_window_));
+  // In the ground plane the last intervals within plane_s_ (at least one).
+  const double last = times_.back() - times_[n - 2];
+  const int plane_window = std::clamp(static_cast<int>(std::lround(plane_s_ / std::max(last, 1e-6))), 1, slow_window_);
+  if (plane_window == slow_window_) return slow;
+  const Eigen::Isometry3d plane = continued(static_cast<std::size_t>(plane_window));
   Eigen::Isometry3d out = slow;
   out.linear() = Eigen::AngleAxisd(yaw_of(plane) - yaw_of(slow), Eigen::Vector3d::UnitZ()) * slow.linear();
   out.translation().head<2>() = plane.translation().head<2>();

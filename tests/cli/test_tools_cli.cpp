@@ -136,7 +136,7 @@ TEST(ToolsCli, PlLocalizeHelpShowsTheConfigDefaults) {
   EXPECT_DOUBLE_EQ(number_default(help, "--max-iterations"), c.icp.max_iterations);
   EXPECT_DOUBLE_EQ(number_default(help, "--kernel"), c.icp.kernel_m);
   EXPECT_DOUBLE_EQ(number_default(help, "--momentum-window"), c.fusion.momentum_window);
-  EXPECT_DOUBLE_EQ(number_default(help, "--momentum-plane-window"), c.fusion.momentum_plane_window);
+  EXPECT_DOUBLE_EQ(number_default(help, "--momentum-plane-s"), c.fusion.momentum_plane_s);
   EXPECT_DOUBLE_EQ(number_default(help, "--cache-mb"), v.tiles.memory_mb);
   EXPECT_EQ(default_of(help, "--beams"), "");  // the sensor's: known once the drive is read
 }

@@ -146,7 +146,7 @@ TEST(Fusion, MomentumFollowsBrakingInThePlaneAndSmoothsHeight) {
   EXPECT_NEAR(pl::yaw_of(p), 0.2, 1e-9);
   // The three intervals' average (7 m a scan) would have put it a metre further.
   pl::client::FusionConfig three;
-  three.momentum_plane_window = 3;
+  three.momentum_plane_s = 3 * 0.8;
   pl::client::Fusion g(three);
   g.reset(pl::make_pose(0, 0, 0.00, 0, 0, 0.0), 0.0, nullptr);
   g.correct(0.8, pl::make_pose(8, 0, 0.05, 0, 0, 0.0));

@@ -30,13 +30,15 @@ struct FusionConfig {
   // a two-pose velocity would double, fewer follows acceleration sooner) -- for height, roll and
   // pitch, which follow the road slowly and which a 16-beam scan fixes least well.
   int momentum_window = 3;
-  // ... and for the motion in the ground plane (along, across, yaw), which the driver changes:
-  // braking at 1.7 m/s2 with scans 0.83 s apart (pl-sim's KITTI 00, LiDAR only, every 4th odd
-  // scan), a three-interval velocity was 2-3.5 m off, past the LiDAR odometry's basin, and the
-  // scan was lost; from the last interval alone the every-3rd drive's APE mean fell from 0.106 to
-  // 0.040 m. Taking height, roll and pitch from one interval as well made drive 0005 at four
-  // times the speed worse (0.065 against 0.057 m): they come from the three intervals.
-  int momentum_plane_window = 1;
+  // ... and for the motion in the ground plane (along, across, yaw), which the driver changes: the
+  // last intervals within this many seconds (at least one, at most momentum_window). Braking at
+  // 1.7 m/s2 with scans 0.83 s apart (pl-sim's KITTI 00, LiDAR only, every 4th odd scan), a
+  // three-interval velocity was 2-3.5 m off, past the LiDAR odometry's basin, and the scan was lost;
+  // from the last interval alone the every-3rd drive's APE mean fell from 0.106 to 0.040 m. With
+  // scans 0.2 s apart one interval's registration noise made drive 0005's motion-compensated scans
+  // worse (0.121 against 0.087 m): 0.4 s takes two there. Height, roll and pitch from one interval
+  // as well made drive 0005 at four times the speed worse (0.065 against 0.057 m).
+  double momentum_plane_s = 0.4;
 };
 
 // Steady-state gain per axis: K = P / (P + R), P the predicted variance solving P = (1 - K) P + Q.
@@ -68,7 +70,8 @@ class Fusion {
   bool have_correction_ = false;
   Eigen::Isometry3d correction_ = Eigen::Isometry3d::Identity();  // map_from_odometry
   int window_;  // poses kept: the longer of the two windows
-  int slow_window_, plane_window_;
+  int slow_window_;
+  double plane_s_;
   // The last scan-time poses, oldest first, for momentum.
   std::vector<double> times_;
   std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>> poses_;
