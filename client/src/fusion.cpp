@@ -26,7 +26,6 @@ std::array<double, 6> steady_state_gain(const FusionConfig& cfg) {
 Fusion::Fusion(const FusionConfig& cfg)
     : gain_(steady_state_gain(cfg)),
       window_(std::max(1, cfg.momentum_window)),
-      slow_window_(std::max(1, cfg.momentum_window)),
       plane_s_(std::max(0.0, cfg.momentum_plane_s)) {}
 
 void Fusion::reset(const Eigen::Isometry3d& pose, double t, const OdometryBuffer* odometry) {
@@ -57,11 +56,11 @@ Eigen::Isometry3d Fusion::predict(double t) const {
     const std::size_t a = n - 1 - std::min(w, n - 1);
     return Eigen::Isometry3d(poses_.back() * scale_motion(poses_[a].inverse() * poses_.back(), (t - times_.back()) / (times_.back() - times_[a])));
   };
-  const Eigen::Isometry3d slow = continued(static_cast<std::size_t>(slow_window_));
+  const Eigen::Isometry3d slow = continued(static_cast<std::size_t>(window_));
   // In the ground plane the last intervals within plane_s_ (at least one).
   const double last = times_.back() - times_[n - 2];
-  const int plane_window = std::clamp(static_cast<int>(std::lround(plane_s_ / std::max(last, 1e-6))), 1, slow_window_);
-  if (plane_window == slow_window_) return slow;
+  const int plane_window = std::clamp(static_cast<int>(std::lround(plane_s_ / std::max(last, 1e-6))), 1, window_);
+  if (plane_window == window_) return slow;
   const Eigen::Isometry3d plane = continued(static_cast<std::size_t>(plane_window));
   Eigen::Isometry3d out = slow;
   out.linear() = Eigen::AngleAxisd(yaw_of(plane) - yaw_of(slow), Eigen::Vector3d::UnitZ()) * slow.linear();

@@ -8,7 +8,8 @@
 // The gain is the steady state of the Riccati recursion for a random walk of the odometry error per
 // scan interval (process noise) observed by LiDAR (measurement noise), axis by axis.
 // Without odometry (or where it has a gap) the prediction is constant-velocity "momentum" from the
-// last two corrected scan poses.
+// last corrected scan poses: in the ground plane over the last fraction of a second, height, roll
+// and pitch over a few scan intervals (FusionConfig).
 #pragma once
 
 #include <Eigen/Geometry>
@@ -69,9 +70,8 @@ class Fusion {
   bool initialized_ = false;
   bool have_correction_ = false;
   Eigen::Isometry3d correction_ = Eigen::Isometry3d::Identity();  // map_from_odometry
-  int window_;  // poses kept: the longer of the two windows
-  int slow_window_;
-  double plane_s_;
+  int window_;      // intervals kept: momentum_window
+  double plane_s_;  // momentum_plane_s
   // The last scan-time poses, oldest first, for momentum.
   std::vector<double> times_;
   std::vector<Eigen::Isometry3d, Eigen::aligned_allocator<Eigen::Isometry3d>> poses_;
