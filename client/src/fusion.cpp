@@ -61,11 +61,7 @@ Eigen::Isometry3d Fusion::predict(double t) const {
   const double last = times_.back() - times_[n - 2];
   const int plane_window = std::clamp(static_cast<int>(std::lround(plane_s_ / std::max(last, 1e-6))), 1, window_);
   if (plane_window == window_) return slow;
-  const Eigen::Isometry3d plane = continued(static_cast<std::size_t>(plane_window));
-  Eigen::Isometry3d out = slow;
-  out.linear() = Eigen::AngleAxisd(yaw_of(plane) - yaw_of(slow), Eigen::Vector3d::UnitZ()) * slow.linear();
-  out.translation().head<2>() = plane.translation().head<2>();
-  return out;
+  return in_ground_plane(slow, continued(static_cast<std::size_t>(plane_window)));
 }
 
 void Fusion::remember(double ts, const Eigen::Isometry3d& x) {

@@ -41,15 +41,6 @@ double registration_sigma(const registration::IcpResult& r, double independent) 
   return std::sqrt(std::max(0.0, top)) * std::sqrt(std::max(1.0, static_cast<double>(r.pairs) / independent));
 }
 
-// The pose `measured` gives in the ground plane (position across the ground, heading), with the height,
-// roll and pitch of `predicted`.
-Eigen::Isometry3d in_ground_plane(const Eigen::Isometry3d& predicted, const Eigen::Isometry3d& measured) {
-  Eigen::Isometry3d out = predicted;
-  out.linear() = rotation_from_vector(Eigen::Vector3d(0, 0, yaw_of(measured) - yaw_of(predicted))) * predicted.linear();
-  out.translation().head<2>() = measured.translation().head<2>();
-  return out;
-}
-
 // How far b is turned from a about the vertical, radians (>= 0).
 double turn_between(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) { return std::abs(yaw_of(a.inverse() * b)); }
 

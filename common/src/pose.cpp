@@ -22,6 +22,13 @@ Pose make_pose(double x, double y, double z, double roll, double pitch, double y
 
 double yaw_of(const Pose& pose) { return std::atan2(pose.linear()(1, 0), pose.linear()(0, 0)); }
 
+Pose in_ground_plane(const Pose& base, const Pose& plane) {
+  Pose out = base;
+  out.linear() = rotation_from_vector(Eigen::Vector3d(0, 0, yaw_of(plane) - yaw_of(base))) * base.linear();
+  out.translation().head<2>() = plane.translation().head<2>();
+  return out;
+}
+
 Eigen::Matrix3d rotation_from_vector(const Eigen::Vector3d& w) {
   const double a = w.norm();
   if (a < 1e-15) return Eigen::Matrix3d::Identity();

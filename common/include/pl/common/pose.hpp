@@ -28,6 +28,8 @@ struct Trajectory {
 Pose make_pose(double x, double y, double z, double roll = 0.0, double pitch = 0.0, double yaw = 0.0);
 // Heading of the pose's x axis in the xy plane.
 double yaw_of(const Pose& pose);
+// The pose `plane` gives in the ground plane (x, y and heading), with the height, roll and pitch of `base`.
+Pose in_ground_plane(const Pose& base, const Pose& plane);
 // The rotation of rotation vector w (axis * angle, radians), and back: SO(3)'s exp and log.
 Eigen::Matrix3d rotation_from_vector(const Eigen::Vector3d& w);
 Eigen::Vector3d rotation_vector(const Eigen::Matrix3d& r);
