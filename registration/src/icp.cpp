@@ -12,27 +12,35 @@
 namespace pl::registration {
 namespace {
 
+// blocks[i]: the cells scan point i read in the previous iteration, read again while it stays in
+// their block.
 NormalEquations accumulate(const PointMap& map, const std::vector<Eigen::Vector3f>& scan, const Eigen::Matrix3f& R,
-                           const Eigen::Vector3f& t, float max_d2, float k2) {
+                           const Eigen::Vector3f& t, float max_d2, float k2, std::vector<CellBlock>& blocks) {
   NormalEquations eq;
   // Each point is rotated once, `ahead` queries before its lookup: its cell's slot is prefetched
-  // then, the cell's points halfway.
+  // then (unless it has a block from the previous iteration), the cell's points halfway.
   constexpr std::size_t ahead = 8;
   std::array<Eigen::Vector3f, ahead> rotated;  // R s of points i .. i + ahead - 1, at slot index % ahead
   const std::size_t n = scan.size();
   for (std::size_t j = 0; j < std::min(ahead, n); ++j) {
     rotated[j] = R * scan[j];
-    map.prefetch(rotated[j] + t);
+    if (!blocks[j].looked) map.prefetch(rotated[j] + t);
   }
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Vector3f qr = rotated[i % ahead];
     if (i + ahead < n) {
       rotated[i % ahead] = R * scan[i + ahead];
-      map.prefetch(rotated[i % ahead] + t);
+      if (!blocks[i + ahead].looked) map.prefetch(rotated[i % ahead] + t);
     }
-    if (i + ahead / 2 < n) map.prefetch_points(rotated[(i + ahead / 2) % ahead] + t);
+    if (i + ahead / 2 < n) {
+      const CellBlock& b = blocks[i + ahead / 2];
+      if (b.looked)
+        PointMap::prefetch_points(b);
+      else
+        map.prefetch_points(rotated[(i + ahead / 2) % ahead] + t);
+    }
     const Eigen::Vector3f q = qr + t;
-    const Neighbour nb = map.nearest(q, max_d2);
+    const Neighbour nb = map.nearest(q, max_d2, blocks[i]);
     if (!nb.point) continue;
     const float r = nb.point->n.dot(q - nb.point->p);
     eq.add(nb.point->n, qr, r, geman_mcclure_weight(r * r, k2));
@@ -51,9 +59,10 @@ IcpResult register_scan(const PointMap& map, const std::vector<Eigen::Vector3f>&
   const float max_d2 = max_d * max_d;
   NormalEquations eq;
   Vector6d last_step = Vector6d::Zero();
+  std::vector<CellBlock> blocks(scan.size());
   for (int it = 0; it < cfg.max_iterations; ++it) {
     const double k = std::max(cfg.kernel_m, cfg.kernel_start_m * std::ldexp(1.0, -it));
-    eq = accumulate(map, scan, R.cast<float>(), t.cast<float>(), max_d2, static_cast<float>(k * k));
+    eq = accumulate(map, scan, R.cast<float>(), t.cast<float>(), max_d2, static_cast<float>(k * k), blocks);
     res.iterations = it + 1;
     if (eq.rows() < 6) break;
     const Vector6d step = solve_step(eq.H(), eq.g());

@@ -79,20 +79,33 @@ bool PointMap::remove(PartId id) {
 }
 
 Neighbour PointMap::nearest(const Eigen::Vector3f& q, float max_dist2) const {
+  CellBlock block;
+  return nearest(q, max_dist2, block);
+}
+
+Neighbour PointMap::nearest(const Eigen::Vector3f& q, float max_dist2, CellBlock& block) const {
   // The 2 x 2 x 2 block of cells nearest to q: on each axis its own cell and the neighbour on q's
   // side. Its own cell first; a neighbour only while its box is nearer than the best point so far.
   const float c = static_cast<float>(cell_);
   const float inv = 1.0f / c;
   std::int64_t base[3], step[3];
   float gap2[3];  // squared distance from q to the face shared with the neighbour, per axis
+  std::uint8_t side = 0;
   for (int a = 0; a < 3; ++a) {
     const float u = q[a] * inv;
     const float f = std::floor(u);
     base[a] = static_cast<std::int64_t>(f);
     const float frac = u - f;
     step[a] = frac < 0.5f ? -1 : 1;
+    if (frac >= 0.5f) side |= static_cast<std::uint8_t>(1 << a);
     const float gap = (frac < 0.5f ? frac : 1.0f - frac) * c;
     gap2[a] = gap * gap;
+  }
+  const std::uint64_t own = pack_cell(base[0], base[1], base[2]);
+  if (own != block.own || side != block.side) {
+    block.own = own;
+    block.side = side;
+    block.looked = 0;
   }
   Neighbour best;
   best.dist2 = max_dist2;
@@ -100,10 +113,14 @@ Neighbour PointMap::nearest(const Eigen::Vector3f& q, float max_dist2) const {
     const int dx = m & 1, dy = (m >> 1) & 1, dz = (m >> 2) & 1;
     const float box2 = dx * gap2[0] + dy * gap2[1] + dz * gap2[2];
     if (box2 >= best.dist2) continue;
-    const Run* s = cells_->find(pack_cell(base[0] + dx * step[0], base[1] + dy * step[1], base[2] + dz * step[2]));
-    if (!s) continue;
-    const MapPoint* p = s->begin;
-    for (std::uint32_t k = 0; k < s->count; ++k) {
+    CellBlock::Span& span = block.cells[m];
+    if (!(block.looked & (1 << m))) {
+      const Run* s = cells_->find(pack_cell(base[0] + dx * step[0], base[1] + dy * step[1], base[2] + dz * step[2]));
+      span = s ? CellBlock::Span{s->begin, s->count} : CellBlock::Span{};
+      block.looked |= static_cast<std::uint8_t>(1 << m);
+    }
+    const MapPoint* p = span.begin;
+    for (std::uint32_t k = 0; k < span.count; ++k) {
       const float d2 = (p[k].p - q).squaredNorm();
       if (d2 < best.dist2) {
         best.dist2 = d2;
@@ -112,6 +129,11 @@ Neighbour PointMap::nearest(const Eigen::Vector3f& q, float max_dist2) const {
     }
   }
   return best;
+}
+
+void PointMap::prefetch_points(const CellBlock& block) {
+  for (int m = 0; m < 8; ++m)
+    if ((block.looked & (1 << m)) && block.cells[m].count) __builtin_prefetch(block.cells[m].begin);
 }
 
 std::uint64_t PointMap::cell_of(const Eigen::Vector3f& q) const {

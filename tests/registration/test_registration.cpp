@@ -113,6 +113,41 @@ TEST(PointMap, NearestEqualsBruteForceWithinHalfACellFarFromTheOrigin) {
   EXPECT_GT(checked, 1000);
 }
 
+TEST(PointMap, AKeptCellBlockGivesTheSameAnswerAsAFreshLookup) {
+  // ICP's use: each scan point keeps its block between iterations and moves a little each time, now
+  // and then across a cell's middle or edge (a new block).
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<float> step(0.0f, 0.08f);
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector3f> normals;
+  for (int i = 0; i < 30000; ++i) {
+    points.emplace_back(20 * u(rng), 20 * u(rng), 2 * u(rng));
+    normals.push_back(Eigen::Vector3f::UnitZ());
+  }
+  reg::PointMap map(Eigen::Vector3d(3, -2, 0), 0.5);
+  map.add(0, points, normals);
+  int kept = 0, renewed = 0, found = 0;
+  for (int q = 0; q < 2000; ++q) {
+    Eigen::Vector3f at(static_cast<float>(20 * u(rng) - 3), static_cast<float>(20 * u(rng) + 2), static_cast<float>(2 * u(rng)));
+    reg::CellBlock block;
+    for (int it = 0; it < 6; ++it) {
+      const std::uint64_t before = block.own;
+      const std::uint8_t side = block.side;
+      const auto kept_answer = map.nearest(at, 0.2f, block);
+      (block.own == before && block.side == side ? kept : renewed)++;
+      const auto fresh = map.nearest(at, 0.2f);
+      ASSERT_EQ(kept_answer.point, fresh.point) << q << " " << it;
+      ASSERT_EQ(kept_answer.dist2, fresh.dist2);
+      found += fresh.point != nullptr;
+      at += Eigen::Vector3f(step(rng), step(rng), step(rng));
+    }
+  }
+  EXPECT_GT(kept, 3000);  // both paths taken often
+  EXPECT_GT(renewed, 3000);
+  EXPECT_GT(found, 10000);
+}
+
 TEST(PointMap, PartsEnterAndLeaveWithoutATrace) {
   // Two parts on either side of x = 0 (the cell grid's boundary): each owns its cells.
   std::vector<Eigen::Vector3d> left, right;

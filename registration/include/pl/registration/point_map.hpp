@@ -27,6 +27,21 @@ struct Neighbour {
   float dist2 = 0;
 };
 
+// The cells one query read, kept by a caller who asks again from nearly the same place (ICP's next
+// iteration moves a scan point by millimetres): a query in the same block reads them again without
+// a lookup in the table, whose slots are the half of a lookup's time spent waiting for memory.
+// Valid only with the map it was filled from and until that map changes.
+struct CellBlock {
+  std::uint64_t own = ~std::uint64_t{0};  // the key of the query's own cell (none yet)
+  std::uint8_t side = 0;                  // per axis, bit set: the neighbour read is the one above
+  std::uint8_t looked = 0;                // per block member: looked up
+  struct Span {
+    const MapPoint* begin = nullptr;
+    std::uint32_t count = 0;
+  };
+  Span cells[8];  // member m: the cell m & 1, m >> 1 & 1, m >> 2 & 1 steps towards the query's side
+};
+
 class PointMap {
  public:
   using PartId = std::uint64_t;
@@ -47,6 +62,12 @@ class PointMap {
 
   // Nearest map point to q (anchor coordinates) within sqrt(max_dist2) (at most cell_m).
   Neighbour nearest(const Eigen::Vector3f& q, float max_dist2) const;
+  // The same, reading the cells `block` holds when q lies in the same block, and keeping there what
+  // it looks up. Exactly the same answer.
+  Neighbour nearest(const Eigen::Vector3f& q, float max_dist2, CellBlock& block) const;
+  // Brings the first points of the cells `block` holds into the cache (the second stage, for a query
+  // whose block is known).
+  static void prefetch_points(const CellBlock& block);
   // Brings q's own cell into the cache: called a few queries ahead, it hides most of a lookup's wait
   // for memory (the table is larger than the cache).
   void prefetch(const Eigen::Vector3f& q) const;
