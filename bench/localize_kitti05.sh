@@ -3,8 +3,9 @@
 # scans, OXTS ground truth): the map is the even-numbered scans merged at their ground-truth poses
 # (0.2 m voxels, tiled into a SQLite map store); the odd-numbered scans are localized against it with
 # 16 of the 64 beams, from the first odd scan's ground-truth pose, on constant-velocity prediction.
-# bench_localize runs ours and the PCL registrations side by side in one run; then the whole product
-# (pl-localize + pl-eval ape) on the same protocol.
+# bench_localize runs ours and the PCL registrations side by side in one run, and each from every
+# scan's ground-truth pose and 0.2 m from it (--from-truth: the floors, and how much of a floor is
+# the start); then the whole product (pl-localize + pl-eval ape) on the same protocol.
 #   bench/localize_kitti05.sh BIN_DIR WORK_DIR [--quick N]
 # The map is prepared once into WORK_DIR/k05. Without the real data it says so and stops (exit 0).
 set -euo pipefail
@@ -21,7 +22,7 @@ export OMP_NUM_THREADS=1
 if [[ ! -x "$bin/bench_localize" ]]; then
   echo "bench_localize: skipped, built without PCL (install libpcl-dev); pl-localize alone follows"
 else
-  "$bin/bench_localize" "$drive" "$k05/maps.sqlite" --map k05 ${quick:+--quick "$quick"}
+  "$bin/bench_localize" "$drive" "$k05/maps.sqlite" --map k05 --from-truth ${quick:+--quick "$quick"}
 fi
 
 # The whole product on the same protocol: pl-localize on the odd scans, pl-eval against their

@@ -29,16 +29,18 @@ for lo in on off; do
     rate_phases "every $k, odometry $lo" "$k" "$k05/gt_odd.txt" --lidar-odometry "$lo"
   done
 done
-# Motion compensation: a map merged with --deskew on, scans localized with --deskew on.
-if [[ ! -f "$k05/deskew.sqlite" ]]; then
-  "$bin/pl-map" build --dataset "$drive" --poses gt --every 2 --deskew on --out "$k05/deskew.pcd" >/dev/null
-  rm -f "$k05/deskew.sqlite.partial"*
-  "$bin/pl-map" tile --cloud "$k05/deskew.pcd" --db "$k05/deskew.sqlite.partial" --map k05 >/dev/null
-  "$bin/pl-map" publish --db "$k05/deskew.sqlite.partial" --map k05 --version 1 >/dev/null
-  mv "$k05/deskew.sqlite.partial" "$k05/deskew.sqlite"
+# Motion compensation: a map merged with --deskew on, scans localized with --deskew on. (The map is
+# named for the sweep's timing, counter-clockwise since 2026-12-03, so a work dir's older map is not
+# reused.)
+if [[ ! -f "$k05/deskew_ccw.sqlite" ]]; then
+  "$bin/pl-map" build --dataset "$drive" --poses gt --every 2 --deskew on --out "$k05/deskew_ccw.pcd" >/dev/null
+  rm -f "$k05/deskew_ccw.sqlite.partial"*
+  "$bin/pl-map" tile --cloud "$k05/deskew_ccw.pcd" --db "$k05/deskew_ccw.sqlite.partial" --map k05 >/dev/null
+  "$bin/pl-map" publish --db "$k05/deskew_ccw.sqlite.partial" --map k05 --version 1 >/dev/null
+  mv "$k05/deskew_ccw.sqlite.partial" "$k05/deskew_ccw.sqlite"
 fi
 for k in 1 2 3 4; do
-  db="$k05/deskew.sqlite" rate_phases "every $k, motion compensated" "$k" "$k05/gt_odd.txt" --deskew on
+  db="$k05/deskew_ccw.sqlite" rate_phases "every $k, motion compensated" "$k" "$k05/gt_odd.txt" --deskew on
 done
 # Kidnappings: K scans, then N cut out.
 for cut in 30,25 20,40 10,30; do

@@ -277,8 +277,8 @@ LoamFeatures extract_loam_features(const Scan& scan, const std::vector<std::uint
   }
   thin(out.edges, cfg.edge_voxel_m);
   thin(out.planes, cfg.plane_voxel_m);
-  // Time within the sweep: clockwise from straight ahead (-0.5 just past the back on the left, 0
-  // ahead, +0.5 back on the right).
+  // Time within the sweep: counter-clockwise from straight ahead (-0.5 just past the back on the
+  // right, 0 ahead, +0.5 back on the left).
   auto times = [](const std::vector<Eigen::Vector3f>& pts, std::vector<float>& t) {
     t.resize(pts.size());
     for (std::size_t i = 0; i < pts.size(); ++i) t[i] = registration::sweep_share_from_azimuth(pts[i]);

@@ -129,9 +129,9 @@ TEST(LoamFeatures, EdgesOnCornersNoneOnShadowsPlanesOnSurfaces) {
     keys.push_back({std::lround(std::floor(p.x() / 0.4)), std::lround(std::floor(p.y() / 0.4)), std::lround(std::floor(p.z() / 0.4))});
   std::sort(keys.begin(), keys.end());
   EXPECT_EQ(std::adjacent_find(keys.begin(), keys.end()), keys.end());
-  // Sweep times: straight ahead 0, left -1/4, right +1/4.
+  // Sweep times: straight ahead 0, right -1/4, left +1/4 (a counter-clockwise spin).
   for (std::size_t i = 0; i < f.planes.size(); ++i)
-    EXPECT_NEAR(f.plane_time[i], -azimuth_deg(f.planes[i]) / 360.0, 1e-5);
+    EXPECT_NEAR(f.plane_time[i], azimuth_deg(f.planes[i]) / 360.0, 1e-5);
 }
 
 TEST(LoamFeatures, OneRingPerPointOrAClearError) {

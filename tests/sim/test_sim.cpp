@@ -113,8 +113,8 @@ TEST(SimLidar, SweepDistortsTheScanByTheMotionAndTimesEachPoint) {
   std::size_t n_left = 0, n_right = 0;
   for (std::size_t i = 0; i < swept.size(); ++i) {
     const auto& p = swept[i];
-    // The share is the firing's azimuth: a clockwise turn timed facing ahead.
-    EXPECT_NEAR(shares[i], -std::atan2(p.y, p.x) / (2 * M_PI), 2e-3) << i;
+    // The share is the firing's azimuth: a counter-clockwise turn timed facing ahead.
+    EXPECT_NEAR(shares[i], std::atan2(p.y, p.x) / (2 * M_PI), 2e-3) << i;
     if (p.x < 15 || p.z < -1.0f) continue;  // the wall's points only
     ++wall;
     // Written in the frame of its own firing: back in the world through that pose it lies on the wall.
@@ -126,9 +126,9 @@ TEST(SimLidar, SweepDistortsTheScanByTheMotionAndTimesEachPoint) {
   ASSERT_GT(wall, 500u);
   ASSERT_GT(n_left, 100u);
   ASSERT_GT(n_right, 100u);
-  // The left half is fired before the scan's time (the sensor further back), the right half after:
-  // the wall reads farther on the left than on the right, by up to the 2 m the sensor moved.
-  EXPECT_GT(left / n_left - right / n_right, 0.25);
+  // The right half is fired before the scan's time (the sensor further back), the left half after:
+  // the wall reads farther on the right than on the left, by up to the 2 m the sensor moved.
+  EXPECT_GT(right / n_right - left / n_left, 0.25);
   // From one pose the two halves agree.
   std::mt19937_64 rng2(5);
   const pl::Scan still = cast_scan(h, at(0.0), s, nullptr, rng2);
@@ -348,7 +348,7 @@ TEST(SimDrive, SameSeedSameBytesWhateverTheThreads) {
   const std::vector<float> times = ds.load_point_times(2, scan.size());
   ASSERT_EQ(times.size(), scan.size());
   for (std::size_t i = 0; i < scan.size(); i += 97)
-    EXPECT_NEAR(times[i], -0.1 * std::atan2(scan[i].y, scan[i].x) / (2 * M_PI), 0.002) << i;
+    EXPECT_NEAR(times[i], 0.1 * std::atan2(scan[i].y, scan[i].x) / (2 * M_PI), 0.002) << i;
   // An existing dataset is not overwritten without --force.
   EXPECT_THROW(simulate(o), pl::Error);
   o.force = true;

@@ -78,7 +78,7 @@ Scan cast_sweep(const LidarModel& lidar, const std::function<Pose(double share)>
     sin_az[k] = std::sin(az[k]);
     const double a = std::remainder(az[k], 2.0 * M_PI);
     seen[k] = std::abs(a) <= half_fov;
-    share[k] = -a / (2.0 * M_PI);
+    share[k] = a / (2.0 * M_PI);  // registration::sweep_share_from_azimuth
     const Pose pose = sensor_at(share[k]);
     rot[k] = pose.linear().cast<float>();
     origin[k] = pose.translation().cast<float>();

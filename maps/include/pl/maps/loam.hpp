@@ -68,8 +68,8 @@ struct LoamConfig {
                                     // velocity); for real recordings and pl-sim's swept scans
   double redeskew_m = 0.01;         // the sweep the registration found differs from the predicted one by
   double redeskew_deg = 0.05;       // more than this: deskewed again with it and solved once more
-  double scan_period_s = 0.1;       // sweep time; the sensor spins clockwise seen from above and the scan's
-                                    // time is when it faces straight ahead (KITTI's HDL-64E)
+  double scan_period_s = 0.1;       // sweep time; the sensor spins counter-clockwise seen from above and
+                                    // the scan's time is when it faces straight ahead (KITTI's HDL-64E)
 };
 
 // The features of one scan, in the sensor frame.
