@@ -31,9 +31,10 @@ t0=$(date +%s)
 # The drives are the localizer benchmark's (bench/localize_kitti00.sh: same seed and options, same
 # bytes): linked when it has made them, simulated here otherwise.
 shared="$work/k00${frames:+-$frames}"
-if [[ ! -f "$d/done" ]]; then
+# `done` names the simulator's sweep: drives swept the other way (before 2026-12-03) are made again.
+if ! grep -qx "sweep ccw" "$d/done" 2>/dev/null; then
   rm -rf "$d/e0" "$d/e1"
-  if [[ -f "$shared/done" ]]; then
+  if grep -qx "sweep ccw" "$shared/done" 2>/dev/null; then
     ln -s "$shared/e0" "$d/e0"
     ln -s "$shared/e1" "$d/e1"
   else
@@ -46,7 +47,7 @@ if [[ ! -f "$d/done" ]]; then
   rm -f "$d/gt-maps.sqlite"*
   "$bin/pl-map" tile --cloud "$d/gt-map.pcd" --db "$d/gt-maps.sqlite" --map k00 >/dev/null
   "$bin/pl-map" publish --db "$d/gt-maps.sqlite" --map k00 --version 1 >/dev/null
-  touch "$d/done"
+  echo "sweep ccw" >"$d/done"
 fi
 if [[ ! -f "$d/reference-0.1.pcd" ]]; then
   # The world of the epoch-0 drive sampled every 0.1 m (pl-sim builds it along the frames simulated,

@@ -14,6 +14,8 @@ mkdir -p "$work/global_town"
 dir=$(cd "$work/global_town" && pwd)
 export PL_NO_PROGRESS=1 OMP_NUM_THREADS=1
 
+# The drives and map of a simulator whose sweep turned the other way (before 2026-12-03) are made again.
+if [[ ! -f "$dir/sweep-ccw" ]]; then rm -f "$dir/maps.sqlite"; fi
 if [[ ! -f "$dir/maps.sqlite" ]]; then
   echo "preparing the town loop's drives and map in $dir (once)"
   "$bin/pl-sim" --route loop --seed 1 --epoch 0 --out "$dir/mapping" --force >/dev/null
@@ -23,6 +25,7 @@ if [[ ! -f "$dir/maps.sqlite" ]]; then
   "$bin/pl-map" tile --cloud "$dir/map.pcd" --db "$dir/maps.sqlite.partial" --map town >/dev/null
   "$bin/pl-map" publish --db "$dir/maps.sqlite.partial" --map town --version 1 >/dev/null
   mv "$dir/maps.sqlite.partial" "$dir/maps.sqlite"
+  touch "$dir/sweep-ccw"
 fi
 "$bin/pl-dataset" poses "$dir/drive" --out "$dir/gt.txt" >/dev/null
 awk 'NR % 2 == 0' "$dir/gt.txt" >"$dir/gt_odd.txt"

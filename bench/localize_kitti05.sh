@@ -3,9 +3,10 @@
 # scans, OXTS ground truth): the map is the even-numbered scans merged at their ground-truth poses
 # (0.2 m voxels, tiled into a SQLite map store); the odd-numbered scans are localized against it with
 # 16 of the 64 beams, from the first odd scan's ground-truth pose, on constant-velocity prediction.
-# bench_localize runs ours and the PCL registrations side by side in one run, and each from every
-# scan's ground-truth pose and 0.2 m from it (--from-truth: the floors, and how much of a floor is
-# the start); then the whole product (pl-localize + pl-eval ape) on the same protocol.
+# bench_localize runs ours and the PCL registrations side by side in one run; a second run restarts
+# ours, PCL's ICP and GICP at every scan's ground-truth pose and 0.2 m from it (--from-truth: the
+# floors, and how much of a floor is the start); then the whole product (pl-localize + pl-eval ape)
+# on the same protocol.
 #   bench/localize_kitti05.sh BIN_DIR WORK_DIR [--quick N]
 # The map is prepared once into WORK_DIR/k05. Without the real data it says so and stops (exit 0).
 set -euo pipefail
@@ -22,6 +23,9 @@ export OMP_NUM_THREADS=1
 if [[ ! -x "$bin/bench_localize" ]]; then
   echo "bench_localize: skipped, built without PCL (install libpcl-dev); pl-localize alone follows"
 else
+  "$bin/bench_localize" "$drive" "$k05/maps.sqlite" --map k05 ${quick:+--quick "$quick"}
+  echo
+  echo "the floors: each scan from its ground-truth pose and 0.2 m from it (a run of its own)"
   "$bin/bench_localize" "$drive" "$k05/maps.sqlite" --map k05 --from-truth ${quick:+--quick "$quick"}
 fi
 

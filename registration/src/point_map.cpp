@@ -96,8 +96,9 @@ Neighbour PointMap::nearest(const Eigen::Vector3f& q, float max_dist2, CellBlock
     const float f = std::floor(u);
     base[a] = static_cast<std::int64_t>(f);
     const float frac = u - f;
-    step[a] = frac < 0.5f ? -1 : 1;
-    if (frac >= 0.5f) side |= static_cast<std::uint8_t>(1 << a);
+    const bool up = !(frac < 0.5f);  // one flag for the step and the block's key (a NaN goes up in both)
+    step[a] = up ? 1 : -1;
+    if (up) side |= static_cast<std::uint8_t>(1 << a);
     const float gap = (frac < 0.5f ? frac : 1.0f - frac) * c;
     gap2[a] = gap * gap;
   }

@@ -127,15 +127,17 @@ TEST(PointMap, AKeptCellBlockGivesTheSameAnswerAsAFreshLookup) {
   }
   reg::PointMap map(Eigen::Vector3d(3, -2, 0), 0.5);
   map.add(0, points, normals);
-  int kept = 0, renewed = 0, found = 0;
+  int kept = 0, renewed = 0, found = 0, later = 0;  // later: a kept block's cell looked up only now
   for (int q = 0; q < 2000; ++q) {
     Eigen::Vector3f at(static_cast<float>(20 * u(rng) - 3), static_cast<float>(20 * u(rng) + 2), static_cast<float>(2 * u(rng)));
     reg::CellBlock block;
     for (int it = 0; it < 6; ++it) {
       const std::uint64_t before = block.own;
-      const std::uint8_t side = block.side;
+      const std::uint8_t side = block.side, looked = block.looked;
       const auto kept_answer = map.nearest(at, 0.2f, block);
-      (block.own == before && block.side == side ? kept : renewed)++;
+      const bool same = block.own == before && block.side == side;
+      (same ? kept : renewed)++;
+      later += same && block.looked != looked;
       const auto fresh = map.nearest(at, 0.2f);
       ASSERT_EQ(kept_answer.point, fresh.point) << q << " " << it;
       ASSERT_EQ(kept_answer.dist2, fresh.dist2);
@@ -145,7 +147,22 @@ TEST(PointMap, AKeptCellBlockGivesTheSameAnswerAsAFreshLookup) {
   }
   EXPECT_GT(kept, 3000);  // both paths taken often
   EXPECT_GT(renewed, 3000);
+  EXPECT_GT(later, 300);
   EXPECT_GT(found, 10000);
+  // A block once filled by a query that is not a number does not mislead the next finite one (the
+  // cells round the anchor, where such a query's cell coordinates may land).
+  reg::PointMap centred(Eigen::Vector3d(10, 10, 1), 0.5);
+  centred.add(0, points, normals);
+  int near_anchor = 0;
+  for (int q = 0; q < 200; ++q) {
+    reg::CellBlock block;
+    centred.nearest(Eigen::Vector3f(std::nanf(""), 0.1f, 0.1f), 0.2f, block);
+    const Eigen::Vector3f at(static_cast<float>(0.25 * u(rng)), static_cast<float>(0.25 * u(rng)), static_cast<float>(0.25 * u(rng)));
+    const auto fresh = centred.nearest(at, 0.2f);
+    EXPECT_EQ(centred.nearest(at, 0.2f, block).point, fresh.point) << q;
+    near_anchor += fresh.point != nullptr;
+  }
+  EXPECT_GT(near_anchor, 150);
 }
 
 TEST(PointMap, PartsEnterAndLeaveWithoutATrace) {

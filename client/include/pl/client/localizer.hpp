@@ -151,7 +151,7 @@ struct LocalizerConfig {
   PlaceConfig places;
   // Motion compensation: each scan's points moved to where the sensor was at the scan's time, by the
   // predicted motion over a sweep of sweep_s (constant velocity), each point's time from its
-  // azimuth (a counter-clockwise spin timed facing ahead, as KITTI's HDL-64E). Off for scans taken at one
+  // azimuth (a counter-clockwise spin timed facing ahead: what fits KITTI's drive 0005). Off for scans taken at one
   // pose; skipped where the caller compensated already (Prediction::compensated) or the velocity is
   // not known yet.
   bool compensate_motion = false;  // off by default: on KITTI raw it did not help (docs/pl-localize.md)

@@ -51,9 +51,9 @@ struct Scene {
 // null. Deterministic for a given rng state.
 Scan cast_scan(const LidarModel& lidar, const Pose& sensor, const Scene& world, const Scene* moving, std::mt19937_64& rng);
 
-// The sweep of a spinning LiDAR: the head turns counter-clockwise seen from above once per sweep (as
-// KITTI's HDL-64E scans are timed, docs/benchmarks.md), and the scan's time is when it faces straight
-// ahead (KITTI's convention). A firing at azimuth a (counter-clockwise from ahead, in (-180, 180] deg)
+// The sweep of a spinning LiDAR: the head turns counter-clockwise seen from above once per sweep (the
+// timing that fits KITTI's drive 0005 best, docs/benchmarks.md), and the scan's time is when it faces
+// straight ahead (KITTI's convention). A firing at azimuth a (counter-clockwise from ahead, in (-180, 180] deg)
 // happens at share s = a / 360 of the sweep, from -0.5 (just past the back, on the right) to +0.5
 // (back, on the left); `sensor_at(s)`
 // gives the LiDAR's pose then. Each point is written in the sensor frame of its own firing, as a
