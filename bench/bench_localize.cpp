@@ -437,9 +437,6 @@ int main(int argc, char** argv) try {
               pl::median(ours.points), cfg.scan.voxel_m, pl::median(ours.target_points),
               pl::median(icp_pp.points), pl::median(icp_pp.target_points));
 
-  const ApeStats ours_ape = ape(ours.poses, gt);
-  const double ours_reg = pl::median(ours.register_ms);
-  const double ours_scan = per_scan_median(ours);
   std::printf("%-40s %7s %7s %7s %7s  %8s %7s  %9s %8s  %9s %9s\n", "APE vs OXTS (m), registration (ms)", "mean", "median",
               "RMSE", "max", "coverage", "<0.5 m", "reg p50", "reg p99", "target", "index");
   const std::vector<const Run*> runs =
@@ -487,6 +484,9 @@ int main(int argc, char** argv) try {
                 io.mean);
     return 0;
   }
+  const ApeStats ours_ape = ape(ours.poses, gt);
+  const double ours_reg = pl::median(ours.register_ms);
+  const double ours_scan = per_scan_median(ours);
   std::printf("\nagainst ours (%.3f m mean APE, registration %.2f ms median a scan, %.2f ms with its map upkeep):\n",
               ours_ape.mean, ours_reg, ours_scan);
   for (const Run* r : {&icp_pp, &icp_pl, &ndt}) {

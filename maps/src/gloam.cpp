@@ -227,7 +227,7 @@ GloamResult build_gloam_map(const Dataset& ds, const GloamConfig& cfg, const Glo
   MapBuildConfig merge = cfg.merge;
   // The merge corrects the sweep when told, or by itself for scans that carry their points' times
   // (the sensor says it sweeps). Not for KITTI raw by default: on drive 0005 the azimuth-timed
-  // correction made the localizer's error larger, either way round (docs/benchmarks.md).
+  // correction of map and scans did not make the localizer's error smaller (docs/benchmarks.md).
   merge.deskew = cfg.deskew == Deskew::On || (cfg.deskew == Deskew::Auto && ds.has_point_times());
   if (ds.meta.sensor.rate_hz > 0) merge.sweep_s = 1.0 / ds.meta.sensor.rate_hz;
   result.map = build_map_from_poses(ds, result.poses, merge,
