@@ -27,7 +27,8 @@ frame_flag=()
 
 export PL_NO_PROGRESS=1
 t0=$(date +%s)
-if [[ ! -f "$work/$tag/done" ]]; then
+# `done` names the simulator's sweep: drives swept the other way (before 2026-12-03) are made again.
+if ! grep -qx "sweep ccw" "$work/$tag/done" 2>/dev/null; then
   rm -rf "$work/$tag"
   mkdir -p "$work/$tag"
   echo "simulating the epoch-0 drive and the epoch-1 drive with 30 trucks ($([[ -n "$frames" ]] && echo "$frames" || echo all) frames) ..."
@@ -38,7 +39,7 @@ if [[ ! -f "$work/$tag/done" ]]; then
   "$bin/pl-map" build --dataset "$work/$tag/e0" --poses gt --out "$work/$tag/map.pcd" >/dev/null
   "$bin/pl-map" tile --cloud "$work/$tag/map.pcd" --db "$work/$tag/maps.sqlite" --map k00 >/dev/null
   "$bin/pl-map" publish --db "$work/$tag/maps.sqlite" --map k00 --version 1 >/dev/null
-  touch "$work/$tag/done"
+  echo "sweep ccw" >"$work/$tag/done"
 fi
 echo "data ready in $(( $(date +%s) - t0 )) s: $("$bin/pl-map" info --db "$work/$tag/maps.sqlite" --map k00 | head -1)"
 
