@@ -101,8 +101,9 @@ int run(const Options& o) {
   std::vector<double> ms, feat_edges, feat_planes, iters;
   std::size_t degenerate = 0, keyframes = 0, points = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    pl::Scan scan = ds.load_scan(idx[i]);
-    auto rings = ds.rings(scan);
+    pl::Frame frame = ds.load_frame(idx[i]);
+    pl::Scan& scan = frame.scan;
+    auto& rings = frame.rings;
     points += scan.size();
     pl::maps::LoamFrame f = odo.add(scan, rings, ds.times[idx[i]]);
     est.poses.push_back(f.pose);

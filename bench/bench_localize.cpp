@@ -356,8 +356,9 @@ int main(int argc, char** argv) try {
   for (std::size_t k = 0; k < scans.size(); ++k) {
     const std::size_t i = scans[k];
     const double t = times[k];
-    const pl::Scan raw = ds.load_scan(i);
-    const auto rings = ds.rings(raw);
+    const pl::Frame frame = ds.load_frame(i);
+    const pl::Scan& raw = frame.scan;
+    const auto& rings = frame.rings;
 
     // Ours.
     if (k == 0) ours_loc.start(start, t, nullptr);

@@ -54,3 +54,7 @@ bash "$(dirname "$0")/gloam_kitti00.sh" "$bin" "$root/build/bench"
 echo
 echo "== gloam_kitti05: G-LOAM on real data, KITTI raw drive 0005 with a consumer GPS"
 bash "$(dirname "$0")/gloam_kitti05.sh" "$bin" "$root/build/bench"
+
+echo
+echo "== recordings_kitti05: drive 0005 as a ROS 1 bag (rosbag), a ROS 2 bag and MCAP, against the folder; reading speed"
+bash "$(dirname "$0")/recordings_kitti05.sh" "$bin" "$root/build/bench"

@@ -79,7 +79,8 @@ int main(int argc, char** argv) {
   int beams = 0;
   std::size_t every = 1, phase = 0, first = 0, count = std::numeric_limits<std::size_t>::max();
   bool realtime = false;
-  app.add_option("--dataset", dataset, "the drive to localize (a dataset folder)")->required()->type_name("DIR");
+  pl::DatasetOptions topics;
+  cli::dataset_option(app, dataset, topics, "the drive to localize");
   auto* server_opt = app.add_option("--server", server, "pl-server's address (http://HOST:PORT)")->type_name("URL");
   auto* db_opt = app.add_option("--db", db, "a local map store instead of a server")->type_name("FILE");
   server_opt->excludes(db_opt);
@@ -135,7 +136,7 @@ int main(int argc, char** argv) {
     if (phase >= every)
       throw Error("--phase " + std::to_string(phase) + " must be below --every " + std::to_string(every) +
                   ": the phases of --every K are 0 to K-1 (run pl-localize --help)");
-    const pl::Dataset ds = pl::open_dataset(dataset);
+    const pl::Dataset ds = pl::open_dataset(dataset, topics);
     const int sensor = ds.meta.sensor.beams;
     if (beams == 0) beams = sensor;
     if (beams > sensor || sensor % beams != 0)

@@ -35,6 +35,7 @@ CLI::Option* db_option(CLI::App& c, std::string& db, bool create) {
 void add_build(Tool& tool) {
   struct State {
     std::string dataset, out, traj_out, report, poses = "gt", deskew = "auto";
+    pl::DatasetOptions topics;
     maps::GloamConfig cfg;
   };
   auto s = std::make_shared<State>();
@@ -43,7 +44,7 @@ void add_build(Tool& tool) {
     s->cfg.poses = s->poses == "gt" ? maps::PoseSource::GroundTruth : maps::PoseSource::Lidar;
     s->cfg.deskew = s->deskew == "on" ? maps::Deskew::On : s->deskew == "off" ? maps::Deskew::Off : maps::Deskew::Auto;
     maps::check_gloam_config(s->cfg);
-    const pl::Dataset ds = pl::open_dataset(s->dataset);
+    const pl::Dataset ds = pl::open_dataset(s->dataset, s->topics);
     pl::StageProgress bars;
     maps::GloamObserver observer;
     observer.progress = [&](const std::string& stage, std::size_t done, std::size_t total) { bars.update(stage, done, total); };
@@ -57,7 +58,7 @@ void add_build(Tool& tool) {
     return 0;
   });
   maps::MapBuildConfig& merge = s->cfg.merge;
-  c.add_option("--dataset", s->dataset, "the drive to build the map from")->required()->type_name("DIR");
+  pl::cli::dataset_option(c, s->dataset, s->topics, "the drive to build the map from");
   pl::cli::output_file(c, "--out", s->out, "where to write the map (PCD)")->required();
   pl::cli::choice(c, "--poses", s->poses, "gt: the dataset's ground truth; lidar: LiDAR odometry (without --gps started at the "
                   "first ground-truth pose when there is one)", {"gt", "lidar"});

@@ -31,22 +31,26 @@ struct Bar {
   }
 };
 
-CLI::App& dir_command(Tool& tool, const std::string& name, const std::string& help, std::string& dir, std::function<int()> body) {
+CLI::App& dir_command(Tool& tool, const std::string& name, const std::string& help, std::string& dir, pl::DatasetOptions& topics,
+                      std::function<int()> body) {
   CLI::App& c = tool.command(name, help, std::move(body));
-  c.add_option("DIR", dir, "the drive (a KITTI odometry or raw folder, or pl-sim's output)")->required();
+  c.add_option("DIR", dir, "the drive: a KITTI odometry or raw folder, pl-sim's output, a ROS 1 bag, a ROS 2 bag (folder or .db3) "
+               "or an MCAP file")->required();
+  pl::cli::topic_options(c, topics);
   return c;
 }
 
 void add_info(Tool& tool) {
   struct State {
     std::string dir;
+    pl::DatasetOptions topics;
     bool json = false;
     pl::dataset::InfoConfig cfg;
   };
   auto s = std::make_shared<State>();
   CLI::App& c = dir_command(tool, "info", "the layout found, scans, duration, points per scan, beams, ground-truth path length, "
-                            "GPS fixes and their status mix, and the sidecar files present (or what is wrong)", s->dir, [s] {
-    const pl::Dataset ds = pl::open_dataset(s->dir);
+                            "GPS fixes and their status mix, and the sidecar files present (or what is wrong)", s->dir, s->topics, [s] {
+    const pl::Dataset ds = pl::open_dataset(s->dir, s->topics);
     Bar bar{{}, "reading scans"};
     const auto info = pl::dataset::dataset_info(ds, s->cfg, bar.callback());
     if (bar.bar) bar.bar->finish();
@@ -60,11 +64,12 @@ void add_info(Tool& tool) {
 void add_poses(Tool& tool) {
   struct State {
     std::string dir, out, format = "kitti";
+    pl::DatasetOptions topics;
   };
   auto s = std::make_shared<State>();
   CLI::App& c = dir_command(tool, "poses", "the ground-truth LiDAR poses, one per scan (KITTI: 12 numbers a line; TUM: t x y z qx qy qz qw)",
-                            s->dir, [s] {
-    const pl::Dataset ds = pl::open_dataset(s->dir);
+                            s->dir, s->topics, [s] {
+    const pl::Dataset ds = pl::open_dataset(s->dir, s->topics);
     if (!ds.has_ground_truth())
       throw pl::Error(ds.dir + ": no ground truth (a KITTI odometry folder needs poses.txt; a raw drive needs oxts/)");
     pl::write_trajectory(s->out, ds.ground_truth, *pl::parse_pose_format(s->format));
@@ -78,12 +83,13 @@ void add_poses(Tool& tool) {
 void add_scans(Tool& tool) {
   struct State {
     std::string dir, timing;
+    pl::DatasetOptions topics;
     pl::ScanPrepConfig cfg = pl::dataset::scan_stats_defaults();
   };
   auto s = std::make_shared<State>();
   CLI::App& c = dir_command(tool, "scans", "prepares every scan as the localizer does (beam choice, field-of-view and range "
-                            "crops, voxel grid) and reports points in and out", s->dir, [s] {
-    const pl::Dataset ds = pl::open_dataset(s->dir);
+                            "crops, voxel grid) and reports points in and out", s->dir, s->topics, [s] {
+    const pl::Dataset ds = pl::open_dataset(s->dir, s->topics);
     Bar bar{{}, "preparing scans"};
     const auto stats = pl::dataset::prepare_every_scan(ds, s->cfg, s->timing, bar.callback());
     if (bar.bar) bar.bar->finish();
@@ -102,13 +108,14 @@ void add_scans(Tool& tool) {
 void add_gps(Tool& tool) {
   struct State {
     std::string dir, out, truth, status;
+    pl::DatasetOptions topics;
   };
   auto s = std::make_shared<State>();
-  CLI::App& c = dir_command(tool, "gps", "the GPS fixes as positions in the dataset's world frame (TUM, identity rotations)", s->dir, [s] {
+  CLI::App& c = dir_command(tool, "gps", "the GPS fixes as positions in the dataset's world frame (TUM, identity rotations)", s->dir, s->topics, [s] {
     std::optional<int> wanted;
     for (int k = pl::kGpsSingle; k <= pl::kGpsFixed; ++k)
       if (s->status == pl::gps_status_name(k)) wanted = k;
-    const pl::Dataset ds = pl::open_dataset(s->dir);
+    const pl::Dataset ds = pl::open_dataset(s->dir, s->topics);
     const auto r = pl::dataset::gps_positions(ds, wanted, !s->truth.empty());
     pl::write_tum_poses(s->out, r.fixes);
     std::printf("wrote %zu GPS positions to %s", r.fixes.size(), s->out.c_str());
@@ -128,11 +135,12 @@ void add_gps(Tool& tool) {
 void add_degrade_gps(Tool& tool) {
   struct State {
     std::string dir, out;
+    pl::DatasetOptions topics;
     pl::dataset::DegradeGpsConfig cfg;
   };
   auto s = std::make_shared<State>();
-  CLI::App& c = dir_command(tool, "degrade-gps", "writes OUT_DIR: the same drive with a consumer-grade gps.csv", s->dir, [s] {
-    const pl::Dataset ds = pl::open_dataset(s->dir);
+  CLI::App& c = dir_command(tool, "degrade-gps", "writes OUT_DIR: the same drive with a consumer-grade gps.csv", s->dir, s->topics, [s] {
+    const pl::Dataset ds = pl::open_dataset(s->dir, s->topics);
     const auto r = pl::dataset::degrade_gps(ds, s->out, s->cfg);
     std::fputs(pl::dataset::degrade_gps_text(r, ds.dir, s->out, s->cfg).c_str(), stdout);
     return 0;

@@ -76,8 +76,8 @@ ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOption
         pending.emplace_back(feed.time(j), loc.pose_at(feed.time(j)).base_in_map);
     }
     const double c0 = seconds_now();
-    const Scan raw = ds.load_scan(i);
-    loc.add_scan(t, raw, o.rings ? ds.rings(raw) : std::vector<std::uint16_t>{}, ds.load_point_times(i, raw.size()));
+    const Frame frame = ds.load_frame(i, o.rings);
+    loc.add_scan(t, frame.scan, frame.rings, frame.times);
     if (!loc.wait_idle(600.0)) throw Error("replay: scan " + std::to_string(i) + " took over 10 minutes");
     if (!loc.pose_at(t).valid) throw Error("the localizer did not start: " + loc.last_error());
     const ScanReport r = loc.last_report();

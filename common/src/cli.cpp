@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <exception>
 
+#include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/output_path.hpp"
 #include "pl/common/text.hpp"
@@ -181,6 +182,20 @@ CLI::Option* output_file(CLI::App& app, const std::string& flag, std::string& pa
 CLI::Option* output_folder(CLI::App& app, const std::string& flag, std::string& path, const std::string& help) {
   auto check = [](std::string& p) { return output_folder_problem(p); };
   return app.add_option(flag, path, help)->check(CLI::Validator(check, ""))->type_name("DIR");
+}
+
+void topic_options(CLI::App& app, DatasetOptions& topics) {
+  app.add_option("--points-topic", topics.points_topic, "a recording's sensor_msgs/PointCloud2 topic (when it has several)")->type_name("TOPIC");
+  app.add_option("--odom-topic", topics.odom_topic, "a recording's nav_msgs/Odometry topic (when it has several)")->type_name("TOPIC");
+  app.add_option("--gps-topic", topics.gps_topic, "a recording's sensor_msgs/NavSatFix topic (when it has several)")->type_name("TOPIC");
+  app.add_option("--truth-topic", topics.truth_topic, "a recording's nav_msgs/Odometry topic holding the ground truth")->type_name("TOPIC");
+}
+
+CLI::Option* dataset_option(CLI::App& app, std::string& path, DatasetOptions& topics, const std::string& help) {
+  topic_options(app, topics);
+  return app.add_option("--dataset", path, help + ": a KITTI folder, a ROS 1 bag, a ROS 2 bag (folder or .db3) or an MCAP file")
+      ->required()
+      ->type_name("PATH");
 }
 
 }  // namespace cli

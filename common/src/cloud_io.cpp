@@ -1,5 +1,9 @@
 #include "pl/common/cloud_io.hpp"
 
+#include <liblzf/lzf.h>
+#include <sys/stat.h>
+
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cfloat>
@@ -9,6 +13,7 @@
 #include <cstdio>
 #include <cstring>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <set>
 
 #include "pl/common/error.hpp"
@@ -16,36 +21,6 @@
 #include "pl/common/text.hpp"
 
 namespace pl {
-
-void write_pcd(const std::string& path, const Points3d& points, const std::vector<float>& intensity,
-               const std::optional<GeoPoint>& origin) {
-  if (!intensity.empty() && intensity.size() != points.size()) throw Error("write_pcd: one intensity per point expected");
-  for (const auto& p : points)
-    if (!(p.cwiseAbs().maxCoeff() < 1.0e5))
-      throw Error(path + ": coordinates beyond 100 km do not fit float32 PCD fields; write the cloud in a local frame");
-  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
-  if (!f) throw Error(path + ": cannot write");
-  std::fprintf(f.get(), "# .PCD v0.7 - Point Cloud Data file format\n");
-  if (origin) std::fprintf(f.get(), "# origin %.10f %.10f %.4f\n", origin->lat_deg, origin->lon_deg, origin->alt_m);
-  std::fprintf(f.get(),
-               "VERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\n"
-               "TYPE F F F F\nCOUNT 1 1 1 1\nWIDTH %zu\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS %zu\nDATA binary\n",
-               points.size(), points.size());
-  std::vector<float> buf;
-  buf.reserve(4 * 65536);
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    buf.push_back(static_cast<float>(points[i].x()));
-    buf.push_back(static_cast<float>(points[i].y()));
-    buf.push_back(static_cast<float>(points[i].z()));
-    buf.push_back(intensity.empty() ? 0.0f : intensity[i]);
-    if (buf.size() >= 4 * 65536 || i + 1 == points.size()) {
-      if (std::fwrite(buf.data(), sizeof(float), buf.size(), f.get()) != buf.size()) throw Error(path + ": write failed (disk full?)");
-      buf.clear();
-    }
-  }
-  if (std::fclose(f.release()) != 0) throw Error(path + ": write failed (disk full?)");
-}
-
 
 namespace {
 
@@ -63,6 +38,81 @@ std::string slurp(const std::string& path) {
   while ((got = std::fread(buf, 1, sizeof(buf), f.get())) > 0) bytes.append(buf, got);
   if (std::ferror(f.get())) throw Error(path + ": cannot read (" + std::strerror(errno) + ")");
   return bytes;
+}
+
+std::string in_quotes(std::string_view text) { return "\"" + printable(text, 80) + "\""; }
+
+// ---- The origin sidecar ----
+
+// PCL and Open3D drop every header comment when they re-save a cloud, and with it the comment
+// "# origin LAT LON ALT": the origin also goes into a file of its own beside the cloud, which a
+// re-save leaves alone.
+std::string origin_sidecar(const std::string& pcd_path) { return pcd_path + ".origin.json"; }
+
+bool valid_origin(const GeoPoint& g) {
+  return std::abs(g.lat_deg) <= 90.0 && std::abs(g.lon_deg) <= 180.0 && std::isfinite(g.alt_m);
+}
+
+std::string describe(const GeoPoint& g) {
+  char buf[160];
+  std::snprintf(buf, sizeof(buf), "lat %.10f lon %.10f alt %.4f", g.lat_deg, g.lon_deg, g.alt_m);
+  return buf;
+}
+
+void write_origin_sidecar(const std::string& path, const GeoPoint& g) {
+  nlohmann::ordered_json j;  // in the order a reader expects: lat, lon, alt
+  j["lat"] = g.lat_deg;
+  j["lon"] = g.lon_deg;
+  j["alt"] = g.alt_m;
+  j["frame"] = "ENU";
+  const std::string text = j.dump(2) + "\n";
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
+  if (!f) throw Error(path + ": cannot write (" + std::strerror(errno) + ")");
+  if (std::fwrite(text.data(), 1, text.size(), f.get()) != text.size() || std::fclose(f.release()) != 0)
+    throw Error(path + ": write failed (disk full?)");
+}
+
+// The origin recorded beside a PCD, or nothing when there is no such file.
+std::optional<GeoPoint> read_origin_sidecar(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) {
+    if (errno == ENOENT) return std::nullopt;
+    throw Error(path + ": cannot open (" + std::strerror(errno) + ")");
+  }
+  // An origin takes a hundred bytes: anything far larger is some other file under this name.
+  if (S_ISREG(st.st_mode) && st.st_size > 65536)
+    throw Error(path + ": " + std::to_string(st.st_size) + " bytes is not an origin file; remove or rename it");
+  const std::string text = slurp(path);
+  const std::string expected = " (expected {\"lat\": DEGREES, \"lon\": DEGREES, \"alt\": METRES, \"frame\": \"ENU\"})";
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    // A number beyond double's range is an out_of_range error, not a parse_error: both land here.
+    throw Error(path + ": not valid JSON: " + printable(e.what(), 300) + expected);
+  }
+  if (!j.is_object()) throw Error(path + ": not an origin" + expected);
+  auto number = [&](const char* key) {
+    const auto it = j.find(key);
+    if (it == j.end()) throw Error(path + ": missing \"" + key + "\"" + expected);
+    if (!it->is_number()) throw Error(path + ": \"" + key + "\" must be a number, not a JSON " + it->type_name() + expected);
+    return it->get<double>();
+  };
+  const GeoPoint g{number("lat"), number("lon"), number("alt")};
+  if (const auto frame = j.find("frame"); frame != j.end() && !(frame->is_string() && frame->get<std::string>() == "ENU"))
+    throw Error(path + ": \"frame\" must be \"ENU\" (the cloud's x east, y north, z up about the origin), found " +
+                (frame->is_string() ? in_quotes(frame->get<std::string>()) : "a JSON " + std::string(frame->type_name())));
+  if (!valid_origin(g))
+    throw Error(path + ": the origin must have lat in [-90, 90] and lon in [-180, 180] degrees, found " + describe(g));
+  return g;
+}
+
+// The comment keeps 10 decimals of a degree and 4 of a metre: a tolerance of 1e-9 degrees (about
+// 0.1 mm) and 1 mm lets both records of one origin agree, and no two maps' origins.
+bool same_origin(const GeoPoint& a, const GeoPoint& b) {
+  double dlon = std::abs(a.lon_deg - b.lon_deg);
+  dlon = std::min(dlon, 360.0 - dlon);  // -180 and 180 degrees are one meridian
+  return std::abs(a.lat_deg - b.lat_deg) <= 1e-9 && dlon <= 1e-9 && std::abs(a.alt_m - b.alt_m) <= 1e-3;
 }
 
 // The header line that starts at `pos`, without its '\n' and a trailing '\r'; moves `pos` past it.
@@ -83,7 +133,50 @@ bool parse_count(std::string_view text, std::size_t& out) {
   return res.ec == std::errc() && res.ptr == text.data() + text.size();
 }
 
-std::string quoted(std::string_view text) { return "\"" + printable(text, 80) + "\""; }
+}  // namespace
+
+void write_pcd(const std::string& path, const Points3d& points, const std::vector<float>& intensity,
+               const std::optional<GeoPoint>& origin) {
+  if (!intensity.empty() && intensity.size() != points.size()) throw Error("write_pcd: one intensity per point expected");
+  if (origin && !valid_origin(*origin))
+    throw Error(path + ": the origin must have lat in [-90, 90] and lon in [-180, 180] degrees and a finite alt, found " +
+                describe(*origin));
+  for (const auto& p : points)
+    if (!(p.cwiseAbs().maxCoeff() < 1.0e5))
+      throw Error(path + ": coordinates beyond 100 km do not fit float32 PCD fields; write the cloud in a local frame");
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "wb"), &std::fclose);
+  if (!f) throw Error(path + ": cannot write");
+  std::fprintf(f.get(), "# .PCD v0.7 - Point Cloud Data file format\n");
+  if (origin) std::fprintf(f.get(), "# origin %.10f %.10f %.4f\n", origin->lat_deg, origin->lon_deg, origin->alt_m);
+  std::fprintf(f.get(),
+               "VERSION 0.7\nFIELDS x y z intensity\nSIZE 4 4 4 4\n"
+               "TYPE F F F F\nCOUNT 1 1 1 1\nWIDTH %zu\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS %zu\nDATA binary\n",
+               points.size(), points.size());
+  std::vector<float> buf;
+  buf.reserve(4 * 65536);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    buf.push_back(static_cast<float>(points[i].x()));
+    buf.push_back(static_cast<float>(points[i].y()));
+    buf.push_back(static_cast<float>(points[i].z()));
+    buf.push_back(intensity.empty() ? 0.0f : intensity[i]);
+    if (buf.size() >= 4 * 65536 || i + 1 == points.size()) {
+      if (std::fwrite(buf.data(), sizeof(float), buf.size(), f.get()) != buf.size())
+        throw Error(path + ": write failed (disk full?)");
+      buf.clear();
+    }
+  }
+  if (std::fclose(f.release()) != 0) throw Error(path + ": write failed (disk full?)");
+  const std::string sidecar = origin_sidecar(path);
+  if (origin) {
+    write_origin_sidecar(sidecar, *origin);
+  } else if (std::remove(sidecar.c_str()) != 0 && errno != ENOENT) {
+    // An earlier cloud's origin file left beside this one would give it that cloud's origin.
+    throw Error(sidecar + ": cannot remove (" + std::strerror(errno) + "); it records the origin of an earlier cloud at " + path +
+                ", written again now without an origin: delete it");
+  }
+}
+
+namespace {
 
 struct Field {
   std::string name;
@@ -142,7 +235,7 @@ RecordShape lay_out(std::vector<Field>& fields, const std::string& name) {
     std::size_t bytes = 0;
     if (!checked_mul(f.size, f.count, bytes) || !checked_add(shape.stride, bytes, shape.stride) ||
         !checked_add(shape.columns, f.count, shape.columns))
-      throw Error(name + ": field " + quoted(f.name) + " has COUNT " + std::to_string(f.count) +
+      throw Error(name + ": field " + in_quotes(f.name) + " has COUNT " + std::to_string(f.count) +
                   ": the record size overflows (a damaged header?)");
   }
   return shape;
@@ -175,14 +268,86 @@ float to_intensity(double v, std::size_t i, const std::string& name) {
   return static_cast<float>(v);
 }
 
-void check_finite(const Eigen::Vector3d& p, std::size_t i, const std::string& name) {
-  if (!p.allFinite())
-    throw Error(name + ": point " + std::to_string(i + 1) + " has a non-finite coordinate (NaN or inf; drop invalid points first)");
+// What a point without a finite position means. In a PCD it is a point without a return: drivers
+// and PCL keep one in an organised cloud (WIDTH x HEIGHT, one point per beam and step) wherever the
+// beam saw nothing, as NaN. No other format this reader takes has that convention: there it is damage.
+enum class NonFinite { Refuse, Drop };
+
+// The points decoded so far. A dropped point takes its intensity with it, so the intensities stay
+// one per point kept.
+class PointSink {
+ public:
+  PointSink(Cloud& cloud, std::size_t n, bool intensity, NonFinite policy, const std::string& name)
+      : cloud_(cloud), policy_(policy), name_(name) {
+    cloud_.points.resize(n);
+    if (intensity) cloud_.intensity.resize(n);
+  }
+  // False when the point is dropped: its intensity is then not wanted. `i` counts the points of the
+  // file from 0, dropped or not, for messages.
+  bool add(const Eigen::Vector3d& p, std::size_t i) {
+    if (!p.allFinite()) {
+      if (policy_ == NonFinite::Refuse)
+        throw Error(name_ + ": point " + std::to_string(i + 1) +
+                    " has a non-finite coordinate (NaN or inf; drop invalid points first)");
+      ++dropped_;
+      return false;
+    }
+    cloud_.points[kept_] = p;
+    return true;
+  }
+  // The intensity of the point add() just kept.
+  void intensity(double v, std::size_t i) { cloud_.intensity[kept_] = to_intensity(v, i, name_); }
+  void next() { ++kept_; }
+  // Gives the cloud its size; the memory of the points dropped is handed back when they were many
+  // (an organised cloud of a sensor that saw little).
+  void finish() {
+    cloud_.points.resize(kept_);
+    if (!cloud_.intensity.empty()) cloud_.intensity.resize(kept_);
+    if (dropped_ > kept_) {
+      cloud_.points.shrink_to_fit();
+      cloud_.intensity.shrink_to_fit();
+    }
+  }
+
+ private:
+  Cloud& cloud_;
+  NonFinite policy_;
+  const std::string& name_;
+  std::size_t kept_ = 0, dropped_ = 0;
+};
+
+// Where the values of each field are in a binary body: field k of point i starts base[k] + i *
+// step[k] bytes in. Records one after another (PCD binary, PLY) have base = the field's offset in
+// the record and step = the record's size; PCD binary_compressed stores field after field.
+struct BinaryLayout {
+  std::vector<std::size_t> base, step;
+};
+
+BinaryLayout record_layout(const std::vector<Field>& fields, const RecordShape& shape) {
+  BinaryLayout l;
+  for (const auto& f : fields) {
+    l.base.push_back(f.offset);
+    l.step.push_back(shape.stride);
+  }
+  return l;
+}
+
+// The caller has checked that `data` holds every value of the n points where `layout` puts it.
+void decode_binary(Cloud& cloud, const std::vector<Field>& fields, const Roles& r, const BinaryLayout& layout, std::size_t n,
+                   std::string_view data, NonFinite policy, const std::string& name) {
+  PointSink sink(cloud, n, r.intensity.has_value(), policy, name);
+  for (std::size_t i = 0; i < n; ++i) {
+    auto value = [&](std::size_t k) { return read_scalar(data.data() + layout.base[k] + i * layout.step[k], fields[k]); };
+    if (!sink.add(Eigen::Vector3d(value(r.x), value(r.y), value(r.z)), i)) continue;
+    if (r.intensity) sink.intensity(value(*r.intensity), i);
+    sink.next();
+  }
+  sink.finish();
 }
 
 // `what` names the declared count for messages ("POINTS", "element vertex").
 void fill_binary(Cloud& cloud, const std::vector<Field>& fields, const Roles& r, const RecordShape& shape, std::size_t n,
-                 std::string_view data, const std::string& name, const std::string& what) {
+                 std::string_view data, NonFinite policy, const std::string& name, const std::string& what) {
   std::size_t need = 0;
   const bool fits = checked_mul(n, shape.stride, need);
   if (!fits || need > data.size())
@@ -190,19 +355,30 @@ void fill_binary(Cloud& cloud, const std::vector<Field>& fields, const Roles& r,
                 (fits ? std::to_string(need) : std::string("more than 2^64")) + " bytes of binary data (" +
                 std::to_string(shape.stride) + " a point), the file has " + std::to_string(data.size()) +
                 " after the header (truncated?)");
-  cloud.points.resize(n);
-  if (r.intensity) cloud.intensity.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const char* rec = data.data() + i * shape.stride;
-    auto value = [&](std::size_t k) { return read_scalar(rec + fields[k].offset, fields[k]); };
-    cloud.points[i] = Eigen::Vector3d(value(r.x), value(r.y), value(r.z));
-    check_finite(cloud.points[i], i, name);
-    if (r.intensity) cloud.intensity[i] = to_intensity(value(*r.intensity), i, name);
+  decode_binary(cloud, fields, r, record_layout(fields, shape), n, data, policy, name);
+}
+
+// An ascii value of a PCD: a number or, for a point without a return, a non-finite value as PCL
+// ("nan") and printf ("-nan", "inf") write it. An out-of-range number ("1e400") stays an error.
+bool parse_pcd_value(std::string_view text, double& out) {
+  if (parse_double(text, out)) return true;
+  std::string word;
+  for (char c : text) word += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const bool negative = !word.empty() && word[0] == '-';
+  if (!word.empty() && (word[0] == '-' || word[0] == '+')) word.erase(0, 1);
+  if (word == "nan") {
+    out = NAN;
+    return true;
   }
+  if (word == "inf" || word == "infinity") {
+    out = negative ? -INFINITY : INFINITY;
+    return true;
+  }
+  return false;
 }
 
 void fill_ascii(Cloud& cloud, const std::vector<Field>& fields, const Roles& r, const RecordShape& shape, std::size_t n,
-                std::string_view data, const std::string& name, const std::string& what) {
+                std::string_view data, NonFinite policy, const std::string& name, const std::string& what) {
   // A point is a line of `columns` values of at least one character, each followed by a separator
   // (the last line may lack its newline): fewer bytes cannot hold the points declared, so the
   // declared count is refused before it sizes anything.
@@ -213,8 +389,11 @@ void fill_ascii(Cloud& cloud, const std::vector<Field>& fields, const Roles& r, 
                 (fits ? std::to_string(need - 1) : std::string("2^64")) + " bytes of ascii data (a line of " +
                 std::to_string(shape.columns) + " values a point), the file has " + std::to_string(data.size()) +
                 " after the header (truncated?)");
-  cloud.points.resize(n);
-  if (r.intensity) cloud.intensity.resize(n);
+  // Only where a non-finite point is dropped may a value spell one; elsewhere "nan" is not a number.
+  auto parse = [&](std::string_view text, double& out) {
+    return policy == NonFinite::Drop ? parse_pcd_value(text, out) : parse_double(text, out);
+  };
+  PointSink sink(cloud, n, r.intensity.has_value(), policy, name);
   std::size_t pos = 0;
   for (std::size_t i = 0; i < n;) {
     if (pos >= data.size()) throw Error(name + ": truncated: expected " + std::to_string(n) + " points, found " + std::to_string(i));
@@ -227,28 +406,35 @@ void fill_ascii(Cloud& cloud, const std::vector<Field>& fields, const Roles& r, 
       throw Error(name + ": point " + std::to_string(i + 1) + " has " + std::to_string(v.size()) + " values, expected " +
                   std::to_string(shape.columns));
     double x, y, z;
-    if (!parse_double(v[fields[r.x].column], x) || !parse_double(v[fields[r.y].column], y) ||
-        !parse_double(v[fields[r.z].column], z))
+    if (!parse(v[fields[r.x].column], x) || !parse(v[fields[r.y].column], y) || !parse(v[fields[r.z].column], z))
       throw Error(name + ": point " + std::to_string(i + 1) + " has a coordinate that is not a number");
-    cloud.points[i] = Eigen::Vector3d(x, y, z);
+    double val = 0;
+    if (!sink.add(Eigen::Vector3d(x, y, z), i)) {
+      // A point without a return goes, but a line that is not numbers is damage all the same.
+      if (r.intensity && !parse(v[fields[*r.intensity].column], val))
+        throw Error(name + ": point " + std::to_string(i + 1) + " has an intensity that is not a number");
+      ++i;
+      continue;
+    }
     if (r.intensity) {
-      double val = 0;
       if (!parse_double(v[fields[*r.intensity].column], val))
         throw Error(name + ": point " + std::to_string(i + 1) + " has an intensity that is not a number");
-      cloud.intensity[i] = to_intensity(val, i, name);
+      sink.intensity(val, i);
     }
+    sink.next();
     ++i;
   }
+  sink.finish();
 }
 
-void fill(Cloud& cloud, std::vector<Field>& fields, std::size_t n, std::string_view data, bool binary,
+void fill(Cloud& cloud, std::vector<Field>& fields, std::size_t n, std::string_view data, bool binary, NonFinite policy,
           const std::string& name, const std::string& what) {
   const Roles roles = find_roles(fields, name);
   const RecordShape shape = lay_out(fields, name);
   if (binary)
-    fill_binary(cloud, fields, roles, shape, n, data, name, what);
+    fill_binary(cloud, fields, roles, shape, n, data, policy, name, what);
   else
-    fill_ascii(cloud, fields, roles, shape, n, data, name, what);
+    fill_ascii(cloud, fields, roles, shape, n, data, policy, name, what);
 }
 
 // ---- PCD ----
@@ -268,14 +454,16 @@ void read_origin_comment(std::string_view line, PcdHeader& h, const std::string&
   GeoPoint g;
   if (o.size() != 3 || !parse_double(o[0], g.lat_deg) || !parse_double(o[1], g.lon_deg) || !parse_double(o[2], g.alt_m)) return;
   if (std::abs(g.lat_deg) > 90.0 || std::abs(g.lon_deg) > 180.0)
-    throw Error(name + ": \"# origin LAT LON ALT\" must have lat in [-90, 90] and lon in [-180, 180] degrees, found " + quoted(line));
+    throw Error(name + ": \"# origin LAT LON ALT\" must have lat in [-90, 90] and lon in [-180, 180] degrees, found " +
+                in_quotes(line));
   h.origin = g;
 }
 
 std::size_t pcd_count(const std::vector<std::string_view>& words, const std::string& name) {
   std::size_t v = 0;
   if (words.size() != 2 || !parse_count(words[1], v))
-    throw Error(name + ": PCD " + std::string(words[0]) + " needs one whole number >= 0, found " + quoted(words.size() > 1 ? words[1] : ""));
+    throw Error(name + ": PCD " + std::string(words[0]) + " needs one whole number >= 0, found " +
+                in_quotes(words.size() > 1 ? words[1] : ""));
   return v;
 }
 
@@ -291,7 +479,7 @@ bool read_pcd_header_line(std::string_view line, PcdHeader& h, std::set<std::str
   auto values = [&] { return std::vector<std::string_view>(words.begin() + 1, words.end()); };
   if (key != "FIELDS" && key != "SIZE" && key != "TYPE" && key != "COUNT" && key != "WIDTH" && key != "HEIGHT" &&
       key != "POINTS" && key != "DATA" && key != "VERSION" && key != "VIEWPOINT")
-    throw Error(name + ": unexpected PCD header line " + quoted(line));
+    throw Error(name + ": unexpected PCD header line " + in_quotes(line));
   // A repeated key would make its fields or counts ambiguous.
   if (!seen.insert(key).second) throw Error(name + ": PCD header has " + key + " twice");
   if (key == "FIELDS") {
@@ -327,21 +515,103 @@ void describe_pcd_fields(PcdHeader& h, const std::string& name) {
     const bool size_ok = parse_count(h.sizes[k], f.size);
     f.type = h.types[k].size() == 1 ? h.types[k][0] : '?';
     if (!size_ok || !supported_scalar(f.type, f.size))
-      throw Error(name + ": field " + quoted(f.name) + " is TYPE " + printable(h.types[k], 16) + " SIZE " + printable(h.sizes[k], 16) +
+      throw Error(name + ": field " + in_quotes(f.name) + " is TYPE " + printable(h.types[k], 16) + " SIZE " +
+                  printable(h.sizes[k], 16) +
                   ", which this reader cannot decode (F with SIZE 4 or 8, I or U with SIZE 1, 2, 4 or 8)");
     if (!h.counts.empty() && (!parse_count(h.counts[k], f.count) || f.count == 0))
-      throw Error(name + ": field " + quoted(f.name) + " has COUNT " + quoted(h.counts[k]) + ": expected a whole number >= 1");
+      throw Error(name + ": field " + in_quotes(f.name) + " has COUNT " + in_quotes(h.counts[k]) +
+                  ": expected a whole number >= 1");
   }
 }
 
-// POINTS, or WIDTH x HEIGHT when it is missing (or 0, as some writers leave it).
+// POINTS, which must be WIDTH x HEIGHT when the header gives both (HEIGHT 1 when missing), or WIDTH
+// x HEIGHT when POINTS is missing.
 std::size_t pcd_point_count(const PcdHeader& h, const std::string& name) {
-  if (h.points && *h.points > 0) return *h.points;
-  std::size_t n = 0;
-  if (!checked_mul(h.width.value_or(0), h.height.value_or(1), n))
-    throw Error(name + ": WIDTH " + std::to_string(h.width.value_or(0)) + " x HEIGHT " + std::to_string(h.height.value_or(1)) +
-                " overflows: the header is damaged");
-  return n;
+  std::optional<std::size_t> grid;
+  if (h.width) {
+    std::size_t wh = 0;
+    if (!checked_mul(*h.width, h.height.value_or(1), wh))
+      throw Error(name + ": WIDTH " + std::to_string(*h.width) + " x HEIGHT " + std::to_string(h.height.value_or(1)) +
+                  " overflows: the header is damaged");
+    grid = wh;
+  }
+  // PCL refuses such a file too: one of the two counts is wrong, and which one decides where the
+  // points end.
+  if (h.points && grid && *h.points != *grid)
+    throw Error(name + ": POINTS " + std::to_string(*h.points) + " but WIDTH " + std::to_string(*h.width) + " x HEIGHT " +
+                std::to_string(h.height.value_or(1)) + " = " + std::to_string(*grid) +
+                ": the header contradicts itself; make POINTS equal WIDTH x HEIGHT (for an unorganised cloud, WIDTH = POINTS "
+                "and HEIGHT 1)");
+  return h.points ? *h.points : grid.value_or(0);
+}
+
+// The most bytes LZF data unpacks to, a multiple of its size: its densest token is a long back
+// reference, 3 bytes that repeat up to 264 bytes already unpacked.
+constexpr std::uint64_t kLzfMaxExpansion = 88;
+
+// DATA binary_compressed, as PCL and Open3D write it: the compressed and the uncompressed size
+// (uint32 each), then that many bytes of LZF data (anything after them is ignored, as PCL writes a
+// file in whole pages). Unpacked, the points are stored field by field: every point's x, then every
+// point's y, and so on, each value SIZE x COUNT bytes.
+//
+// Padding fields "_" hold nothing: PCL's writer leaves them out of the header and the data, and its
+// reader skips them in the columns, while Open3D's reader expects their columns in. Both are read,
+// told apart by the uncompressed size, which differs whenever a padding field has bytes.
+void fill_pcd_compressed(Cloud& cloud, std::vector<Field>& fields, std::size_t n, std::string_view data,
+                         const std::string& name) {
+  const Roles roles = find_roles(fields, name);
+  const RecordShape shape = lay_out(fields, name);
+  if (data.size() < 8)
+    throw Error(name + ": DATA binary_compressed needs 8 bytes after the header (the compressed and the uncompressed size), " +
+                "the file has " + std::to_string(data.size()) + " (truncated?)");
+  std::uint32_t compressed = 0, uncompressed = 0;
+  std::memcpy(&compressed, data.data(), 4);
+  std::memcpy(&uncompressed, data.data() + 4, 4);
+  std::size_t packed_stride = 0;  // the bytes of a point without padding; it cannot overflow where shape.stride did not
+  for (const auto& f : fields)
+    if (f.name != "_") packed_stride += f.size * f.count;
+  std::size_t packed = 0, padded = 0;
+  const bool packed_fits = checked_mul(n, packed_stride, packed), padded_fits = checked_mul(n, shape.stride, padded);
+  const bool with_padding = padded_fits && uncompressed == padded && packed_stride != shape.stride;
+  if (!(packed_fits && uncompressed == packed) && !with_padding)
+    throw Error(name + ": binary_compressed data unpacks to " + std::to_string(uncompressed) + " bytes, but POINTS " +
+                std::to_string(n) + " of " + std::to_string(packed_stride) + " bytes need " +
+                (packed_fits ? std::to_string(packed) : std::string("more than 2^64")) +
+                (packed_stride != shape.stride ? " (" + (padded_fits ? std::to_string(padded) : std::string("more than 2^64")) +
+                                                     " with the padding fields \"_\")"
+                                               : std::string()) +
+                ": the header and the data disagree (a damaged file?)");
+  if (compressed > data.size() - 8)
+    throw Error(name + ": binary_compressed data of " + std::to_string(compressed) +
+                " bytes runs past the end of the file, which has " + std::to_string(data.size() - 8) +
+                " after the sizes (truncated?)");
+  std::vector<char> plain;
+  if (uncompressed > 0) {
+    // lzf_decompress reads one byte even of empty input.
+    if (compressed == 0)
+      throw Error(name + ": binary_compressed data of 0 bytes cannot unpack to " + std::to_string(uncompressed) +
+                  " (a damaged file?)");
+    // A few bytes must not make the reader allocate gigabytes before the data turns out short.
+    if (compressed * kLzfMaxExpansion < uncompressed)
+      throw Error(name + ": binary_compressed data of " + std::to_string(compressed) + " bytes cannot unpack to " +
+                  std::to_string(uncompressed) + " (LZF unpacks to at most " + std::to_string(kLzfMaxExpansion) +
+                  " times its size): a damaged file");
+    plain.resize(uncompressed);
+    const unsigned got = lzf_decompress(data.data() + 8, compressed, plain.data(), uncompressed);
+    if (got != uncompressed)
+      throw Error(name + ": binary_compressed data is corrupt: its " + std::to_string(compressed) + " bytes of LZF " +
+                  (got == 0 ? std::string("do not unpack") : "unpack to " + std::to_string(got) + " bytes") +
+                  " where the header says " + std::to_string(uncompressed) + " (a damaged file?)");
+  }
+  BinaryLayout layout;
+  std::size_t column = 0;  // where the next field's values start, per point
+  for (const auto& f : fields) {
+    const bool stored = with_padding || f.name != "_";
+    layout.base.push_back(stored ? n * column : 0);  // a padding field left out is never read: no field of a role is "_"
+    layout.step.push_back(f.size * f.count);
+    if (stored) column += f.size * f.count;
+  }
+  decode_binary(cloud, fields, roles, layout, n, std::string_view(plain.data(), plain.size()), NonFinite::Drop, name);
 }
 
 }  // namespace
@@ -356,17 +626,31 @@ Cloud parse_pcd(std::string_view bytes, const std::string& name) {
   if (!at_data || h.data.empty()) throw Error(name + ": header has no DATA line (is this a PCD file?)");
   describe_pcd_fields(h, name);
   const std::size_t n = pcd_point_count(h, name);
-  const bool binary = h.data == "binary";
-  if (!binary && h.data != "ascii")
-    throw Error(name + ": PCD DATA " + printable(h.data, 40) +
-                " is not supported (ascii or binary; convert with pcl_convert_pcd_ascii_binary FILE OUT 1)");
   Cloud cloud;
-  fill(cloud, h.fields, n, bytes.substr(pos), binary, name, "POINTS");
+  if (h.data == "binary_compressed")
+    fill_pcd_compressed(cloud, h.fields, n, bytes.substr(pos), name);
+  else if (h.data == "binary" || h.data == "ascii")
+    fill(cloud, h.fields, n, bytes.substr(pos), h.data == "binary", NonFinite::Drop, name, "POINTS");
+  else
+    throw Error(name + ": PCD DATA " + printable(h.data, 40) + " is not supported (ascii, binary or binary_compressed)");
   cloud.origin = h.origin;
   return cloud;
 }
 
-Cloud read_pcd(const std::string& path) { return parse_pcd(slurp(path), path); }
+Cloud read_pcd(const std::string& path) {
+  Cloud cloud = parse_pcd(slurp(path), path);
+  const std::string sidecar = origin_sidecar(path);
+  if (const auto recorded = read_origin_sidecar(sidecar)) {
+    // Two records of the origin that disagree: the cloud was re-saved next to another map's origin
+    // file, or the other way round. Either may be the right one; guessing would misplace the map.
+    if (cloud.origin && !same_origin(*cloud.origin, *recorded))
+      throw Error(sidecar + " records the origin " + describe(*recorded) + " but the \"# origin\" comment of " + path + " says " +
+                  describe(*cloud.origin) + ": one of the two belongs to another map; delete the wrong one " +
+                  "(or write the cloud again with write_pcd, which writes both)");
+    cloud.origin = recorded;  // the full precision of the two
+  }
+  return cloud;
+}
 
 namespace {
 
@@ -379,7 +663,7 @@ struct PlyHeader {
 };
 
 Field ply_property(const std::vector<std::string_view>& w, std::string_view line, const std::string& name) {
-  if (w.size() < 3 || w[1] == "list") throw Error(name + ": vertex properties must be scalars, found " + quoted(line));
+  if (w.size() < 3 || w[1] == "list") throw Error(name + ": vertex properties must be scalars, found " + in_quotes(line));
   const std::string_view t = w[1];
   Field f{std::string(w[2])};
   if (t == "float" || t == "float32") f.type = 'F', f.size = 4;
@@ -411,7 +695,7 @@ PlyHeader read_ply_header(std::string_view bytes, std::size_t& pos, const std::s
     } else if (w[0] == "element") {
       std::size_t count = 0;
       if (w.size() != 3 || !parse_count(w[2], count))
-        throw Error(name + ": expected \"element NAME COUNT\" (COUNT a whole number >= 0), found " + quoted(line));
+        throw Error(name + ": expected \"element NAME COUNT\" (COUNT a whole number >= 0), found " + in_quotes(line));
       in_vertex = w[1] == "vertex";
       if (in_vertex && seen_vertex) throw Error(name + ": two vertex elements");
       // The records of an element before the vertices would have to be skipped, and those with
@@ -434,7 +718,7 @@ Cloud parse_ply(std::string_view bytes, const std::string& name) {
   std::size_t pos = 0;
   PlyHeader h = read_ply_header(bytes, pos, name);
   Cloud cloud;
-  fill(cloud, h.fields, h.vertices, bytes.substr(pos), h.binary, name, "element vertex");
+  fill(cloud, h.fields, h.vertices, bytes.substr(pos), h.binary, NonFinite::Refuse, name, "element vertex");
   return cloud;
 }
 

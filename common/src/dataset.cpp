@@ -1,12 +1,15 @@
 #include "pl/common/dataset.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
 #include <map>
 
+#include "dataset_recording.hpp"
+#include "pl/common/bag.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/text.hpp"
 
@@ -24,14 +27,36 @@ const char* gps_status_name(int status) {
   }
 }
 
-const char* Dataset::layout_name() const { return layout == DatasetLayout::KittiRaw ? "KITTI raw" : "KITTI odometry"; }
+const char* Dataset::layout_name() const {
+  switch (layout) {
+    case DatasetLayout::KittiRaw: return "KITTI raw";
+    case DatasetLayout::Recording: return "recording";
+    default: return "KITTI odometry";
+  }
+}
 
 Scan Dataset::load_scan(std::size_t i) const {
+  if (recording) return recording_frame(*recording, i, false).scan;
   if (i >= scan_paths.size()) throw Error("scan index " + std::to_string(i) + " out of range (dataset has " + std::to_string(scan_paths.size()) + " scans)");
   return read_kitti_bin(scan_paths[i]);
 }
 
+Frame Dataset::load_frame(std::size_t i, bool with_rings) const {
+  if (recording) return recording_frame(*recording, i, with_rings);  // rings only from a ring field
+  Frame f;
+  f.scan = load_scan(i);
+  if (with_rings) f.rings = rings(f.scan);
+  f.times = load_point_times(i, f.scan.size());
+  return f;
+}
+
 std::vector<float> Dataset::load_point_times(std::size_t i, std::size_t points) const {
+  if (recording) {
+    std::vector<float> t = recording_frame(*recording, i, false).times;
+    if (!t.empty() && t.size() != points)
+      throw Error(dir + ": scan " + std::to_string(i) + " has " + std::to_string(t.size()) + " point times for " + std::to_string(points) + " points");
+    return t;
+  }
   if (i >= scan_paths.size()) throw Error("scan index " + std::to_string(i) + " out of range (dataset has " + std::to_string(scan_paths.size()) + " scans)");
   if (!has_point_times()) return {};
   const std::string& scan = scan_paths[i];
@@ -59,14 +84,25 @@ Eigen::Vector3d Dataset::to_world(const GeoPoint& p) const {
   throw Error(dir + ": GPS positions cannot be placed in the world frame: add \"origin\" {lat, lon, alt} to meta.json");
 }
 
-bool parse_kitti_timestamp(const std::string& text, double& seconds) {
-  int y, mo, d, h, mi;
-  double s;
+bool parse_kitti_timestamp_ns(const std::string& text, std::int64_t& ns) {
+  int y, mo, d, h, mi, whole, used = 0;
   // Field widths keep every number within int (sscanf's %d on more digits is undefined), and the
-  // year within 4 digits keeps the day count below from overflowing.
-  if (std::sscanf(text.c_str(), "%4d-%2d-%2d %2d:%2d:%lf", &y, &mo, &d, &h, &mi, &s) != 6) return false;
-  if (y < 0 || mo < 1 || mo > 12 || d < 1 || d > 31 || h < 0 || h > 23 || mi < 0 || mi > 59) return false;
-  if (!(s >= 0 && s < 61)) return false;  // also refuses "nan" seconds
+  // year within 4 digits keeps the day count below from overflowing. The seconds are read as digits,
+  // not as a double, so that the time is exact to the nanosecond (a recording's stamps are integers).
+  if (std::sscanf(text.c_str(), "%4d-%2d-%2d %2d:%2d:%2d%n", &y, &mo, &d, &h, &mi, &whole, &used) != 6) return false;
+  if (y < 0 || mo < 1 || mo > 12 || d < 1 || d > 31 || h < 0 || h > 23 || mi < 0 || mi > 59 || whole < 0 || whole > 60) return false;
+  if (!std::isdigit(static_cast<unsigned char>(text[static_cast<std::size_t>(used) - 1]))) return false;  // "%2d" took a sign only
+  std::int64_t frac = 0;
+  std::size_t i = static_cast<std::size_t>(used);
+  if (i < text.size() && text[i] == '.') {
+    int digits = 0;
+    for (++i; i < text.size() && std::isdigit(static_cast<unsigned char>(text[i])); ++i, ++digits)
+      if (digits < 9) frac = frac * 10 + (text[i] - '0');
+    if (digits == 0) return false;
+    for (; digits < 9; ++digits) frac *= 10;
+  }
+  while (i < text.size() && (text[i] == ' ' || text[i] == '\t' || text[i] == '\r')) ++i;
+  if (i != text.size()) return false;  // "1e400", "nan" and other tails
   // Days from the civil date (proleptic Gregorian), so runs across midnight or month ends stay monotonic.
   y -= mo <= 2;
   long era = (y >= 0 ? y : y - 399) / 400;
@@ -74,7 +110,14 @@ bool parse_kitti_timestamp(const std::string& text, double& seconds) {
   long doy = (153 * (mo + (mo > 2 ? -3 : 9)) + 2) / 5 + d - 1;
   long doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
   long days = era * 146097 + doe - 719468;
-  seconds = static_cast<double>(days) * 86400.0 + h * 3600.0 + mi * 60.0 + s;
+  ns = ((static_cast<std::int64_t>(days) * 86400 + h * 3600 + mi * 60 + whole) * 1000000000LL) + frac;
+  return true;
+}
+
+bool parse_kitti_timestamp(const std::string& text, double& seconds) {
+  std::int64_t ns = 0;
+  if (!parse_kitti_timestamp_ns(text, ns)) return false;
+  seconds = ns_to_seconds(ns);
   return true;
 }
 
@@ -274,7 +317,8 @@ void open_raw_layout(Dataset& ds) {
     }
     if (all.size() <= static_cast<std::size_t>(ds.frame_ids.back()))
       throw Error(ts_path + ": has " + std::to_string(all.size()) + " timestamps but scan " + std::to_string(ds.frame_ids.back()) + " needs one");
-    for (long id : ds.frame_ids) ds.times.push_back(all[id] - all[0]);
+    // Absolute, the recording's clock (seconds since 1970), as a recording of the same drive gives them.
+    for (long id : ds.frame_ids) ds.times.push_back(all[id]);
   }
 
   // OXTS: one file of 30 numbers per frame.
@@ -345,11 +389,16 @@ void open_raw_layout(Dataset& ds) {
 
 }  // namespace
 
-Dataset open_dataset(const std::string& dir_in) {
+Dataset open_dataset(const std::string& dir_in, const DatasetOptions& options) {
+  if (bag::is_recording(dir_in)) return open_recording(dir_in, options);
   Dataset ds;
   ds.dir = dir_in;
   while (ds.dir.size() > 1 && ds.dir.back() == '/') ds.dir.pop_back();
-  if (!dir_exists(ds.dir)) throw Error(ds.dir + ": no such folder");
+  if (!dir_exists(ds.dir)) {
+    if (file_exists(ds.dir))
+      throw Error(ds.dir + ": not a dataset: expected a KITTI folder, a ROS 1 bag (.bag), a ROS 2 bag (a folder with metadata.yaml, or a .db3 file) or an MCAP file");
+    throw Error(ds.dir + ": no such folder");
+  }
   ds.meta.sensor.vertical_angles_deg = hdl64_vertical_angles_deg();
 
   if (dir_exists(ds.dir + "/velodyne_points/data") && dir_exists(ds.dir + "/oxts/data"))

@@ -192,7 +192,7 @@ void write_kitti_poses(const std::string& path, const Trajectory& traj) {
   for (const Pose& p : traj.poses) {
     const auto& m = p.matrix();
     for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 4; ++c) std::fprintf(f.get(), (r == 2 && c == 3) ? "%.12g\n" : "%.12g ", m(r, c));
+      for (int c = 0; c < 4; ++c) std::fprintf(f.get(), (r == 2 && c == 3) ? "%.17g\n" : "%.17g ", m(r, c));
   }
   finish_writing(std::move(f), path);
 }
@@ -204,7 +204,7 @@ void write_tum_poses(const std::string& path, const Trajectory& traj) {
     const Pose& p = traj.poses[i];
     Eigen::Quaterniond q(p.linear());
     if (q.w() < 0) q.coeffs() *= -1.0;
-    std::fprintf(f.get(), "%.6f %.12g %.12g %.12g %.12g %.12g %.12g %.12g\n", traj.times[i], p.translation().x(),
+    std::fprintf(f.get(), "%.6f %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n", traj.times[i], p.translation().x(),
                  p.translation().y(), p.translation().z(), q.x(), q.y(), q.z(), q.w());
   }
   finish_writing(std::move(f), path);

@@ -121,8 +121,9 @@ Trajectory lidar_poses(const Dataset& ds, const GloamConfig& cfg, const std::vec
   loop_prep.voxel_m = cfg.loop_voxel_m;
   const auto t_start = std::chrono::steady_clock::now();
   for (std::size_t i = 0; i < ds.size(); ++i) {
-    Scan scan = ds.load_scan(i);
-    LoamFrame f = odometry.add(scan, ds.rings(scan), ds.times[i]);
+    Frame frame = ds.load_frame(i);
+    Scan& scan = frame.scan;
+    LoamFrame f = odometry.add(scan, frame.rings, ds.times[i]);
     placed.poses.push_back(f.pose);
     information.push_back(f.information);
     ms.push_back(f.ms);

@@ -75,10 +75,8 @@ MapCloud build_map_from_poses(const Dataset& ds, const Trajectory& poses, const 
   std::size_t last = std::min(cfg.last, ds.size() == 0 ? 0 : ds.size() - 1);
   std::size_t total = last >= cfg.first ? (last - cfg.first) / cfg.every + 1 : 0, done = 0;
   for (std::size_t i = cfg.first; i <= last && i < ds.size(); i += cfg.every) {
-    Scan scan = ds.load_scan(i);
-    std::vector<std::uint16_t> rings;
-    if (prep.beams > 0 && prep.beams < prep.sensor_beams) rings = ds.rings(scan);
-    Scan kept = prepare_scan(scan, rings, prep);
+    const Frame frame = ds.load_frame(i, prep.beams > 0 && prep.beams < prep.sensor_beams);
+    Scan kept = prepare_scan(frame.scan, frame.rings, prep);
     const Pose& pose = poses.poses[i];
     if (cfg.deskew) deskew(kept, poses, i, cfg.sweep_s);
     for (const auto& p : kept) acc.add(pose * Eigen::Vector3d(p.x, p.y, p.z), p.intensity);

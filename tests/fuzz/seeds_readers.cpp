@@ -1,8 +1,12 @@
 // Seeds of the file readers' fuzz targets (pcd, ply, kitti_bin, dataset): files written by the
 // project's own writers (write_pcd, write_kitti_bin, write_meta) and, for what other tools write
 // (ascii PCD, PLY from CloudCompare/Open3D, KITTI text files), small files in their documented
-// layouts. Each seed is a few hundred bytes: the fuzzer grows them.
+// layouts, and PCD files that PCL 1.13 wrote (binary_compressed among them). Each seed is a few
+// hundred bytes: the fuzzer grows them.
+#include <liblzf/lzf.h>
+
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -68,6 +72,26 @@ std::vector<float> intensity_of(const pl::Scan& s) {
   return v;
 }
 
+std::string from_hex(const std::string& hex) {
+  std::string out;
+  for (std::size_t i = 0; i + 1 < hex.size(); i += 2) out += static_cast<char>(std::stoi(hex.substr(i, 2), nullptr, 16));
+  return out;
+}
+
+// A PCD binary_compressed body: the compressed and the uncompressed size, then the LZF data of
+// `plain` (the points' values field after field).
+std::string lzf_body(const std::string& plain) {
+  std::string packed(plain.size() * 2 + 64, '\0');
+  const unsigned n =
+      lzf_compress(plain.data(), static_cast<unsigned>(plain.size()), packed.data(), static_cast<unsigned>(packed.size()));
+  if (n == 0 && !plain.empty()) throw pl::Error("make_fuzz_seeds: lzf_compress failed");
+  packed.resize(n);
+  std::string out;
+  append_raw<std::uint32_t>(out, n);
+  append_raw<std::uint32_t>(out, static_cast<std::uint32_t>(plain.size()));
+  return out + packed;
+}
+
 void pcd_seeds(const pl::fuzz::PutSeed& put) {
   const pl::Scan s = small_scan(4, 2);
   put("binary-write_pcd", written_by([&](const std::string& p) { pl::write_pcd(p, points_of(s), intensity_of(s)); }));
@@ -97,6 +121,50 @@ void pcd_seeds(const pl::fuzz::PutSeed& put) {
     append_raw<std::uint16_t>(mixed, 0xffff);
   }
   put("binary-mixed-types", mixed);
+
+  // What PCL 1.13 wrote (pcl::io::savePCDFile*, pcl::PCDWriter): an organised 3 x 2 PointXYZI cloud
+  // with two NaN points (no return), binary_compressed and ascii; and a driver's record with a uint16
+  // intensity and a uint8 ring, where the padding becomes fields "_" in binary and is left out of the
+  // compressed columns.
+  const std::string pcl = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\n";
+  const std::string xyzi = pcl +
+                           "FIELDS x y z intensity\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH 3\nHEIGHT 2\n"
+                           "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 6\n";
+  put("binary_compressed-pcl-organised-nan",
+      xyzi + "DATA binary_compressed\n" +
+          from_hex("51000000600000000f0000c03f0000c07f0080c942000000bf600b06004041000010c0600b068048430000803e600b02"
+                   "0058c12023a00b0040201f01e04080170064202f00202003200001807f202f00402017200002ff7f47"));
+  put("ascii-pcl-organised-nan", xyzi +
+                                     "DATA ascii\n1.5 -2.25 0.125 10\nnan nan nan 0\n100.75 200.5 -3 255.5\n"
+                                     "-0.5 0.25 7 3\nnan nan nan 0\n12 -13.5 14.25 65535\n");
+  const std::string ring = "WIDTH 3\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 3\n";
+  put("binary_compressed-pcl-ring",
+      pcl + "FIELDS x y z intensity ring\nSIZE 4 4 4 2 1\nTYPE F F F U U\nCOUNT 1 1 1 1 1\n" + ring + "DATA binary_compressed\n" +
+          from_hex("280000002d0000000f0000a0bf0000c07f0000f44100002040800b0521c20000403f800b0a803f0700000060ea00010f"));
+  put("binary-pcl-ring-padding",
+      pcl + "FIELDS x y z _ intensity ring _\nSIZE 4 4 4 1 2 1 1\nTYPE F F F U U U U\nCOUNT 1 1 1 4 1 1 5\n" + ring +
+          "DATA binary\n" +
+          from_hex("0000a0bf000020400000403fabababab070000cdcdcdcdcd0000c07f0000c07f0000c07fabababab000001cdcdcdcdcd"
+                   "0000f441000021c20000803fabababab60ea0fcdcdcdcdcd"));
+  // Columns with the padding in (as Open3D's reader expects them), every scalar type, repeated
+  // rows for LZF back references; and the empty cloud PCL writes (both sizes 0).
+  std::string x, y, z, pad, in, t;
+  for (int i = 0; i < 24; ++i) {
+    append_raw<double>(x, i % 6 == 5 ? NAN : 0.5 * (i % 6));  // one point of each row without a return
+    append_raw<std::int16_t>(y, static_cast<std::int16_t>(-100 + i % 6));
+    append_raw<std::uint32_t>(z, 7u);
+    pad += std::string(3, '\0');
+    append_raw<std::uint8_t>(in, static_cast<std::uint8_t>(i % 6 == 1 ? 255 : 10 * i));
+    append_raw<float>(t, 0.01f * static_cast<float>(i));
+  }
+  put("binary_compressed-padded-types",
+      "VERSION 0.7\nFIELDS x y z _ intensity t\nSIZE 8 2 4 1 1 4\nTYPE F I U U U F\nCOUNT 1 1 1 3 1 1\nWIDTH 6\nHEIGHT 4\n"
+      "POINTS 24\nDATA binary_compressed\n" +
+          lzf_body(x + y + z + pad + in + t));
+  put("binary_compressed-empty",
+      "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 0\nHEIGHT 1\nPOINTS 0\n"
+      "DATA binary_compressed\n" +
+          std::string(8, '\0'));
 }
 
 void ply_seeds(const pl::fuzz::PutSeed& put) {

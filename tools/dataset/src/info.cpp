@@ -37,8 +37,9 @@ nlohmann::json dataset_info(const Dataset& ds, const InfoConfig& cfg, const std:
   std::vector<double> points, rings, kept16, voxel02;
   for (std::size_t k = 0; k < count; ++k) {
     const std::size_t i = count == 1 ? 0 : k * (ds.size() - 1) / (count - 1);
-    const Scan scan = ds.load_scan(i);
-    const auto r = ds.rings(scan);
+    const Frame frame = ds.load_frame(i);
+    const Scan& scan = frame.scan;
+    const auto& r = frame.rings;
     points.push_back(static_cast<double>(scan.size()));
     rings.push_back(r.empty() ? 0.0 : 1.0 + *std::max_element(r.begin(), r.end()));
     const int every = std::max(1, ds.meta.sensor.beams / 16);
@@ -57,7 +58,8 @@ nlohmann::json dataset_info(const Dataset& ds, const InfoConfig& cfg, const std:
                 {"rings_found_median", median_of(rings)},
                 {"rings_found_min", *std::min_element(rings.begin(), rings.end())},
                 {"rings_found_max", *std::max_element(rings.begin(), rings.end())},
-                {"ring_method", ds.meta.sensor.point_order == "laser-by-laser" ? "azimuth wrap" : "vertical angle table"},
+                {"ring_method", ds.recording ? (rings.empty() || rings.front() == 0 ? "none (no ring field)" : "the clouds' ring field")
+                                : ds.meta.sensor.point_order == "laser-by-laser" ? "azimuth wrap" : "vertical angle table"},
                 {"sixteen_beam_share_median", median_of(kept16)},
                 {"voxel_0.2m_points_median", median_of(voxel02)}};
 
@@ -84,6 +86,17 @@ nlohmann::json dataset_info(const Dataset& ds, const InfoConfig& cfg, const std:
   j["odometry_samples"] = ds.odometry.size();
   j["sidecars"] = ds.sidecars;
   if (ds.meta.origin) j["origin"] = {{"lat", ds.meta.origin->lat_deg}, {"lon", ds.meta.origin->lon_deg}, {"alt", ds.meta.origin->alt_m}};
+  if (ds.recording) {
+    const RecordingInfo& ri = ds.recording_info;
+    nlohmann::json topics = nlohmann::json::array();
+    for (const auto& t : ri.topics)
+      topics.push_back({{"name", t.name}, {"type", t.type}, {"encoding", t.encoding}, {"messages", t.count}, {"first_s", t.first_s},
+                        {"last_s", t.last_s}, {"rate_hz", t.rate_hz}, {"max_gap_s", t.max_gap_s}, {"frame_id", t.frame_id}, {"use", t.use}});
+    j["recording"] = {{"format", ri.format}, {"topics", topics}, {"lidar_frame", ri.lidar_frame}, {"base_frame", ri.base_frame},
+                      {"gps_frame", ri.gps_frame}, {"point_times", ds.has_point_times()},
+                      {"gps_lever_arm_m", {ds.meta.vehicle.gps_lever_arm.x(), ds.meta.vehicle.gps_lever_arm.y(), ds.meta.vehicle.gps_lever_arm.z()}},
+                      {"notes", ri.notes}};
+  }
   return j;
 }
 
@@ -105,7 +118,7 @@ std::string dataset_info_text(const Dataset& ds, const nlohmann::json& j) {
   if (ds.has_ground_truth())
     append_format(out, "ground truth   %zu poses, path length %.1f m\n", ds.ground_truth.size(), j["ground_truth"]["path_length_m"].get<double>());
   else
-    append_format(out, "ground truth   none (no poses.txt)\n");
+    append_format(out, ds.recording ? "ground truth   none (name a topic with --truth-topic)\n" : "ground truth   none (no poses.txt)\n");
   if (!ds.gps.empty()) {
     append_format(out, "gps            %zu fixes, median std %.3f m:", ds.gps.size(), j["gps"]["std_m_median"].get<double>());
     for (const auto& [name, n] : j["gps"]["status"].items())
@@ -121,6 +134,26 @@ std::string dataset_info_text(const Dataset& ds, const nlohmann::json& j) {
   append_format(out, "sidecars       %s\n", side.empty() ? "none" : side.c_str());
   if (ds.meta.origin)
     append_format(out, "origin         lat %.9f, lon %.9f, alt %.3f m\n", ds.meta.origin->lat_deg, ds.meta.origin->lon_deg, ds.meta.origin->alt_m);
+  if (ds.recording) {
+    const RecordingInfo& ri = ds.recording_info;
+    append_format(out, "recording      %s, %zu topics (scans from the clouds' header stamps, the recording's clock)\n", ri.format.c_str(),
+                  ri.topics.size());
+    for (const auto& t : ri.topics) {
+      append_format(out, "  %-28s %-26s %-4s %6zu msgs", t.name.c_str(), t.type.c_str(), t.encoding.c_str(), t.count);
+      if (t.count > 1) append_format(out, " %7.2f Hz, max gap %.3f s", t.rate_hz, t.max_gap_s);
+      if (!t.frame_id.empty()) append_format(out, ", frame %s", t.frame_id.c_str());
+      append_format(out, "%s\n", t.use.empty() ? "" : ("  -> " + t.use).c_str());
+    }
+    append_format(out, "frames         LiDAR %s, base %s, GPS antenna %s; lever arm in the LiDAR frame %.3f %.3f %.3f m\n",
+                  ri.lidar_frame.empty() ? "-" : ri.lidar_frame.c_str(), ri.base_frame.empty() ? "-" : ri.base_frame.c_str(),
+                  ri.gps_frame.empty() ? "-" : ri.gps_frame.c_str(), ds.meta.vehicle.gps_lever_arm.x(), ds.meta.vehicle.gps_lever_arm.y(),
+                  ds.meta.vehicle.gps_lever_arm.z());
+    append_format(out, "localizer      scans from %s%s; odometry %s; GPS %s\n",
+                  ri.topics.empty() ? "-" : [&] { for (const auto& t : ri.topics) if (t.use == "scans") return t.name.c_str(); return "-"; }(),
+                  ds.has_point_times() ? " with per-point times" : "", ds.odometry.empty() ? "none (LiDAR odometry)" : "from the odometry topic",
+                  ds.gps.empty() ? "none" : "from the NavSatFix topic");
+    for (const auto& n : ri.notes) append_format(out, "note           %s\n", n.c_str());
+  }
   return out;
 }
 

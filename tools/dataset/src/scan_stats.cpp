@@ -24,11 +24,10 @@ ScanStats prepare_every_scan(const Dataset& ds, ScanPrepConfig cfg, const std::s
   }
   std::vector<double> in, out, ms;
   for (std::size_t i = 0; i < ds.size(); ++i) {
-    Scan scan = ds.load_scan(i);
+    const Frame frame = ds.load_frame(i, cfg.beams > 0 && cfg.beams < cfg.sensor_beams);
+    const Scan& scan = frame.scan;
     const auto t0 = std::chrono::steady_clock::now();
-    std::vector<std::uint16_t> rings;
-    if (cfg.beams > 0 && cfg.beams < cfg.sensor_beams) rings = ds.rings(scan);
-    const Scan prepared = prepare_scan(scan, rings, cfg);
+    const Scan prepared = prepare_scan(scan, frame.rings, cfg);
     const double elapsed = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     in.push_back(static_cast<double>(scan.size()));
     out.push_back(static_cast<double>(prepared.size()));

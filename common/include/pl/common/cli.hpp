@@ -18,6 +18,8 @@
 
 namespace pl {
 
+struct DatasetOptions;
+
 // "a,b,c" as exactly n numbers; throws pl::Error naming the flag otherwise.
 std::vector<double> parse_number_list(const std::string& text, std::size_t n, const std::string& flag);
 
@@ -95,6 +97,13 @@ GeoPoint geo_point(const std::string& text, const std::string& flag);
 // creates or writes into (pl::output_folder_problem).
 CLI::Option* output_file(CLI::App& app, const std::string& flag, std::string& path, const std::string& help);
 CLI::Option* output_folder(CLI::App& app, const std::string& flag, std::string& path, const std::string& help);
+
+// --dataset PATH (a KITTI folder, a ROS 1 bag, a ROS 2 bag folder or .db3 file, or an MCAP file), and
+// the flags that choose a recording's topics where it has several of a kind: --points-topic,
+// --odom-topic, --gps-topic, --truth-topic.
+CLI::Option* dataset_option(CLI::App& app, std::string& path, DatasetOptions& topics, const std::string& help);
+// The topic flags alone (for a program whose dataset is a positional argument).
+void topic_options(CLI::App& app, DatasetOptions& topics);
 
 }  // namespace cli
 }  // namespace pl

@@ -1,8 +1,10 @@
 // One reader for real and simulated drives: KITTI odometry and KITTI raw layouts, plus this
-// project's sidecar files (encoder.csv, gps.csv, odometry.csv, meta.json). docs/dataset-layout.md
-// describes every file.
+// project's sidecar files (encoder.csv, gps.csv, odometry.csv, meta.json), and recordings (ROS 1 and
+// ROS 2 bags, MCAP files: pl/common/bag.hpp). docs/dataset-layout.md describes every file.
 #pragma once
 
+#include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -14,7 +16,7 @@
 
 namespace pl {
 
-enum class DatasetLayout { KittiOdometry, KittiRaw };
+enum class DatasetLayout { KittiOdometry, KittiRaw, Recording };
 
 // GPS status, from worst to best. OXTS position modes map onto it (see docs/dataset-layout.md).
 enum GpsStatus : int { kGpsNone = 0, kGpsSingle = 1, kGpsDgps = 2, kGpsFloat = 3, kGpsFixed = 4 };
@@ -47,6 +49,42 @@ struct WorldProjection {
   Pose world_from_projected = Pose::Identity();  // applied after the projection
 };
 
+// A scan as the localizer and the map builder take it: its points, each point's ring (empty when not
+// asked for) and each point's time in seconds from the scan's time (empty when the sensor gives none).
+struct Frame {
+  Scan scan;
+  std::vector<std::uint16_t> rings;
+  std::vector<float> times;
+};
+
+// The topics of a recording to use where it has several of a kind (empty: the only one).
+struct DatasetOptions {
+  std::string points_topic;  // sensor_msgs/PointCloud2
+  std::string odom_topic;    // nav_msgs/Odometry
+  std::string gps_topic;     // sensor_msgs/NavSatFix
+  // A nav_msgs/Odometry topic holding the ground truth (a reference system's poses of its child frame
+  // in a world frame), for evaluation and the paper's protocol; left out of the odometry's choice.
+  std::string truth_topic;
+};
+
+class RecordingScans;  // a recording's scans, read on demand (common/src/dataset_recording.cpp)
+
+// What a recording held and what was taken from it (pl-dataset info prints it).
+struct RecordingInfo {
+  std::string format;  // "ROS 1 bag", "ROS 2 bag", "MCAP"
+  struct TopicUse {
+    std::string name, type, encoding;
+    std::size_t count = 0;
+    double first_s = 0, last_s = 0;  // recorder's clock
+    double rate_hz = 0, max_gap_s = 0;
+    std::string frame_id;  // of its first message, when it has a header
+    std::string use;       // "scans", "odometry", "gps", "extrinsics", or "" (unused)
+  };
+  std::vector<TopicUse> topics;
+  std::string lidar_frame, base_frame, gps_frame;
+  std::vector<std::string> notes;  // choices made and what was missing
+};
+
 struct Dataset {
   std::string dir;
   DatasetLayout layout = DatasetLayout::KittiOdometry;
@@ -62,12 +100,17 @@ struct Dataset {
   std::vector<std::string> sidecars;  // sidecar files found
   std::string point_times_dir;        // point_times/ when the drive has per-point times, else empty
   WorldProjection projection;
+  std::shared_ptr<RecordingScans> recording;  // set when the scans come from a bag or MCAP file
+  RecordingInfo recording_info;
 
-  std::size_t size() const { return scan_paths.size(); }
+  std::size_t size() const { return frame_ids.size(); }  // scans (a folder: one per file; a recording: one per cloud)
   bool has_ground_truth() const { return !ground_truth.poses.empty(); }
   bool has_point_times() const { return !point_times_dir.empty(); }  // the sensor says it sweeps
   const char* layout_name() const;
   Scan load_scan(std::size_t i) const;
+  // Scan i with its rings (when `with_rings`: from the cloud's ring field, else from the meta's point
+  // order) and its points' times (from the cloud's time field, or point_times/).
+  Frame load_frame(std::size_t i, bool with_rings = true) const;
   // Seconds from the scan's time of each point of scan i (`points` of them), from point_times/;
   // empty when the dataset has none.
   std::vector<float> load_point_times(std::size_t i, std::size_t points) const;
@@ -77,10 +120,18 @@ struct Dataset {
   Eigen::Vector3d to_world(const GeoPoint& p) const;
 };
 
-// Reads the layout found in `dir`. Throws pl::Error naming the file, the line and what was expected.
-Dataset open_dataset(const std::string& dir);
+// Reads the layout found at `path`: a KITTI folder, a ROS 1 bag, a ROS 2 bag (folder or .db3) or an
+// MCAP file. Throws pl::Error naming the file, the line or offset, and what was expected.
+Dataset open_dataset(const std::string& path, const DatasetOptions& options = {});
+// A recording's dataset (open_dataset calls it for bags and MCAP files).
+Dataset open_recording(const std::string& path, const DatasetOptions& options = {});
 
-// Parses a KITTI raw timestamp ("2011-09-26 13:04:32.349659964") to seconds since 1970 (UTC).
+// Parses a KITTI raw timestamp ("2011-09-26 13:04:32.349659964") to seconds since 1970 (UTC): exactly
+// to nanoseconds, and in seconds as ns_to_seconds() gives them.
+bool parse_kitti_timestamp_ns(const std::string& text, std::int64_t& ns);
 bool parse_kitti_timestamp(const std::string& text, double& seconds);
+// The one conversion of a time in nanoseconds (a recording's stamps, KITTI's timestamps) to seconds,
+// so that the same instant gives the same double whichever way a drive was read.
+inline double ns_to_seconds(std::int64_t ns) { return static_cast<double>(ns) * 1e-9; }
 
 }  // namespace pl

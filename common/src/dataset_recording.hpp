@@ -1,0 +1,14 @@
+// The part of a recording's dataset that stays open: its reader and where each scan lies.
+#pragma once
+
+#include <cstddef>
+
+#include "pl/common/dataset.hpp"
+
+namespace pl {
+
+// Scan i of the recording, decoded from its PointCloud2 (rings from the cloud's ring field when it has
+// one and `with_rings`, times from its time field). Safe from several threads (one read at a time).
+Frame recording_frame(RecordingScans& recording, std::size_t i, bool with_rings);
+
+}  // namespace pl

@@ -1,0 +1,330 @@
+// Decoding follows the two wire formats field by field. ROS 1 packs fields with no padding and
+// prefixes strings and sequences with a u32 length. CDR (ROS 2) starts with a 4-byte encapsulation
+// header, aligns each primitive to its own size counted from the end of that header, and counts a
+// string's terminating NUL in its length. ROS 1's std_msgs/Header has a u32 seq that ROS 2 dropped.
+#include "pl/common/ros_msgs.hpp"
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "byte_reader.hpp"
+#include "pl/common/error.hpp"
+
+namespace pl::ros {
+namespace {
+
+using bag::Encoding;
+
+class Cursor {
+ public:
+  Cursor(std::string_view bytes, Encoding enc, const std::string& name) : r_(bytes, name), cdr_(enc == Encoding::Cdr) {
+    if (cdr_) {
+      const std::uint8_t h0 = r_.u8("the CDR encapsulation header"), h1 = r_.u8("the CDR encapsulation header");
+      r_.u16("the CDR encapsulation options");
+      if (h0 != 0 || (h1 != 1 && h1 != 0))
+        r_.fail_at_offset(0, "unknown CDR encapsulation " + std::to_string(h0) + "," + std::to_string(h1) +
+                                 " (expected 0,1: plain little-endian CDR as ROS 2 writes it)");
+      if (h1 == 0) r_.fail_at_offset(0, "big-endian CDR is not supported (record on a little-endian machine, or convert the bag)");
+    }
+  }
+
+  template <typename T>
+  T get(const char* what) {
+    align(sizeof(T));
+    return r_.get<T>(what);
+  }
+  double f64(const char* what) { return get<double>(what); }
+  std::uint32_t u32(const char* what) { return get<std::uint32_t>(what); }
+
+  std::string str(const char* what) {
+    const std::uint32_t n = u32(what);
+    std::string_view s = r_.bytes(n, what);
+    if (cdr_) {
+      if (n == 0 || s.back() != '\0') fail(std::string(what) + ": a CDR string must end in a NUL counted in its length");
+      s.remove_suffix(1);
+    }
+    return std::string(s);
+  }
+  // A sequence's length, checked against the bytes left at `least` bytes an element.
+  std::uint32_t count(const char* what, std::size_t least) {
+    const std::uint32_t n = u32(what);
+    if (least > 0 && n > r_.left() / least)
+      fail(std::string(what) + ": " + std::to_string(n) + " elements cannot fit in the " + std::to_string(r_.left()) + " bytes left");
+    return n;
+  }
+  std::string_view bytes(std::uint64_t n, const char* what) { return r_.bytes(n, what); }
+
+  Header header() {
+    Header h;
+    if (!cdr_) u32("the header's seq");
+    const std::int64_t sec = cdr_ ? get<std::int32_t>("the header's stamp") : static_cast<std::int64_t>(u32("the header's stamp"));
+    const std::uint32_t nsec = u32("the header's stamp");
+    if (nsec >= 1000000000u) fail("the header's stamp has " + std::to_string(nsec) + " nanoseconds (expected below 1e9)");
+    h.stamp_ns = sec * 1000000000LL + nsec;
+    h.frame_id = str("the header's frame_id");
+    return h;
+  }
+  Eigen::Vector3d vec3(const char* what) {
+    Eigen::Vector3d v;
+    for (int i = 0; i < 3; ++i) v[i] = f64(what);
+    if (!v.allFinite()) fail(std::string(what) + " is not finite");
+    return v;
+  }
+  Eigen::Quaterniond quat(const char* what) {
+    double x = f64(what), y = f64(what), z = f64(what), w = f64(what);
+    Eigen::Quaterniond q(w, x, y, z);
+    const double n = q.norm();
+    if (!(n > 0.5 && n < 1.5)) fail(std::string(what) + " is not a unit quaternion (norm " + std::to_string(n) + ")");
+    return q.normalized();
+  }
+  Pose pose(const char* what) {
+    Pose p = Pose::Identity();
+    p.translation() = vec3(what);
+    p.linear() = quat(what).toRotationMatrix();
+    return p;
+  }
+  template <std::size_t N>
+  std::array<double, N> doubles(const char* what) {
+    std::array<double, N> a{};
+    for (auto& v : a) v = f64(what);
+    return a;
+  }
+  [[noreturn]] void fail(const std::string& problem) const { r_.fail(problem); }
+
+ private:
+  void align(std::size_t n) {
+    if (!cdr_ || n <= 1) return;
+    const std::size_t at = r_.pos() - 4;  // aligned from the end of the encapsulation header
+    const std::size_t pad = (n - at % n) % n;
+    r_.need(pad, "padding");
+    r_.seek(r_.pos() + pad);
+  }
+  bag::ByteReader r_;
+  bool cdr_;
+};
+
+// PointField datatypes.
+enum : std::uint8_t { kInt8 = 1, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, kFloat64 };
+std::size_t type_size(std::uint8_t t) {
+  switch (t) {
+    case kInt8: case kUint8: return 1;
+    case kInt16: case kUint16: return 2;
+    case kInt32: case kUint32: case kFloat32: return 4;
+    case kFloat64: return 8;
+    default: return 0;
+  }
+}
+
+struct Field {
+  std::string name;
+  std::uint32_t offset = 0;
+  std::uint8_t type = 0;
+  std::uint32_t count = 0;
+};
+
+// A field's value at a point as a double.
+inline double value_at(const char* p, std::uint8_t type) {
+  switch (type) {
+    case kFloat32: { float v; std::memcpy(&v, p, 4); return v; }
+    case kFloat64: { double v; std::memcpy(&v, p, 8); return v; }
+    case kUint8: return static_cast<std::uint8_t>(*p);
+    case kInt8: return static_cast<std::int8_t>(*p);
+    case kUint16: { std::uint16_t v; std::memcpy(&v, p, 2); return v; }
+    case kInt16: { std::int16_t v; std::memcpy(&v, p, 2); return v; }
+    case kUint32: { std::uint32_t v; std::memcpy(&v, p, 4); return v; }
+    case kInt32: { std::int32_t v; std::memcpy(&v, p, 4); return v; }
+    default: return 0;
+  }
+}
+
+const Field* find_field(const std::vector<Field>& fields, std::initializer_list<const char*> names) {
+  for (const char* n : names)
+    for (const Field& f : fields)
+      if (f.name == n) return &f;
+  return nullptr;
+}
+
+// How a time field's values become seconds from the header's stamp.
+enum class TimeKind { None, RelativeNs, RelativeS, Absolute };
+
+}  // namespace
+
+Header decode_header(std::string_view bytes, Encoding encoding, const std::string& name) {
+  Cursor c(bytes, encoding, name);
+  return c.header();
+}
+
+PointCloud decode_point_cloud2(std::string_view bytes, Encoding encoding, const std::string& name) {
+  Cursor c(bytes, encoding, name);
+  PointCloud out;
+  out.header = c.header();
+  const std::uint32_t height = c.u32("height"), width = c.u32("width");
+  const std::uint32_t nfields = c.count("the fields", 13);
+  std::vector<Field> fields(nfields);
+  for (Field& f : fields) {
+    f.name = c.str("a field's name");
+    f.offset = c.u32("a field's offset");
+    f.type = c.get<std::uint8_t>("a field's datatype");
+    f.count = c.u32("a field's count");
+    out.fields.push_back(f.name);
+  }
+  const bool big_endian = c.get<std::uint8_t>("is_bigendian") != 0;
+  const std::uint32_t point_step = c.u32("point_step"), row_step = c.u32("row_step");
+  const std::uint32_t size = c.count("the data", 1);
+  const std::string_view data = c.bytes(size, "the data");
+  c.get<std::uint8_t>("is_dense");
+
+  auto refuse = [&](const std::string& problem) { throw Error(name + ": a PointCloud2 " + problem); };
+  if (big_endian) refuse("is big-endian (is_bigendian true): not supported; record on a little-endian machine");
+  for (const Field& f : fields) {
+    const std::size_t s = type_size(f.type);
+    if (s == 0) refuse("field \"" + f.name + "\" has unknown datatype " + std::to_string(f.type) + " (expected 1-8)");
+    if (f.count == 0 || static_cast<std::uint64_t>(f.offset) + s > point_step)
+      refuse("field \"" + f.name + "\" (offset " + std::to_string(f.offset) + ", " + std::to_string(s) + " bytes) lies outside the point's " +
+             std::to_string(point_step) + " bytes");
+  }
+  const Field* fx = find_field(fields, {"x"});
+  const Field* fy = find_field(fields, {"y"});
+  const Field* fz = find_field(fields, {"z"});
+  if (!fx || !fy || !fz) {
+    std::string have;
+    for (const Field& f : fields) have += (have.empty() ? "" : " ") + f.name;
+    refuse("has no x, y and z fields (it has: " + (have.empty() ? std::string("none") : have) + "); a LiDAR scan needs them");
+  }
+  const std::uint64_t points = static_cast<std::uint64_t>(width) * height;
+  if (points > 0) {
+    if (static_cast<std::uint64_t>(width) * point_step > row_step)
+      refuse("row of " + std::to_string(width) + " points of " + std::to_string(point_step) + " bytes does not fit its row_step " + std::to_string(row_step));
+    const std::uint64_t needed = static_cast<std::uint64_t>(height - 1) * row_step + static_cast<std::uint64_t>(width) * point_step;
+    if (needed > data.size())
+      refuse("of " + std::to_string(width) + " x " + std::to_string(height) + " points needs " + std::to_string(needed) + " bytes of data, has " +
+             std::to_string(data.size()) + " (the message is damaged)");
+  }
+  const Field* fi = find_field(fields, {"intensity", "reflectivity", "i"});
+  const Field* fr = find_field(fields, {"ring", "line", "channel"});
+  const Field* ft = find_field(fields, {"t", "time", "timestamp", "time_offset"});
+  TimeKind kind = TimeKind::None;
+  if (ft) {
+    if (ft->type == kFloat32 || ft->type == kFloat64)
+      kind = ft->name == "timestamp" ? TimeKind::Absolute : TimeKind::RelativeS;
+    else if (ft->type == kUint32 || ft->type == kInt32)
+      kind = TimeKind::RelativeNs;
+  }
+  const double stamp_s = static_cast<double>(out.header.stamp_ns) * 1e-9;
+
+  out.points.reserve(points);
+  if (fr) out.rings.reserve(points);
+  if (kind != TimeKind::None) out.times.reserve(points);
+  // An absolute timestamp field: seconds or nanoseconds since 1970 by its magnitude; a small value is
+  // already relative (some drivers write the offset under this name).
+  double abs_scale = 1.0;
+  bool abs_relative = false;
+  bool abs_decided = false;
+  for (std::uint32_t row = 0; row < height; ++row) {
+    const char* line = data.data() + static_cast<std::size_t>(row) * row_step;
+    for (std::uint32_t col = 0; col < width; ++col) {
+      const char* p = line + static_cast<std::size_t>(col) * point_step;
+      const double x = value_at(p + fx->offset, fx->type), y = value_at(p + fy->offset, fy->type), z = value_at(p + fz->offset, fz->type);
+      if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
+        ++out.dropped;
+        continue;
+      }
+      float in = fi ? static_cast<float>(value_at(p + fi->offset, fi->type)) : 0.0f;
+      if (!std::isfinite(in)) in = 0.0f;
+      out.points.push_back({static_cast<float>(x), static_cast<float>(y), static_cast<float>(z), in});
+      if (fr) {
+        const double r = value_at(p + fr->offset, fr->type);
+        if (!(r >= 0 && r < 65536)) refuse("point has ring " + std::to_string(r) + " (expected 0-65535)");
+        out.rings.push_back(static_cast<std::uint16_t>(r));
+      }
+      if (kind == TimeKind::None) continue;
+      const double v = value_at(p + ft->offset, ft->type);
+      double t = 0;
+      switch (kind) {
+        case TimeKind::RelativeNs: t = v * 1e-9; break;
+        case TimeKind::RelativeS: t = v; break;
+        default:
+          if (!abs_decided) {
+            abs_decided = true;
+            abs_relative = std::abs(v) < 1e6;
+            abs_scale = std::abs(v) > 1e15 ? 1e-9 : 1.0;
+          }
+          t = abs_relative ? v : v * abs_scale - stamp_s;
+          break;
+      }
+      if (!(std::abs(t) < 1.0))
+        refuse("point's time field \"" + ft->name + "\" gives " + std::to_string(t) + " s from the header's stamp (expected within a second: a sweep)");
+      out.times.push_back(static_cast<float>(t));
+    }
+  }
+  return out;
+}
+
+Odometry decode_odometry(std::string_view bytes, Encoding encoding, const std::string& name) {
+  Cursor c(bytes, encoding, name);
+  Odometry o;
+  o.header = c.header();
+  o.child_frame_id = c.str("child_frame_id");
+  o.pose = c.pose("the pose");
+  o.pose_covariance = c.doubles<36>("the pose's covariance");
+  o.linear = c.vec3("the linear velocity");
+  o.angular = c.vec3("the angular velocity");
+  c.doubles<36>("the twist's covariance");
+  return o;
+}
+
+Twist decode_twist_stamped(std::string_view bytes, Encoding encoding, const std::string& name) {
+  Cursor c(bytes, encoding, name);
+  Twist t;
+  t.header = c.header();
+  t.linear = c.vec3("the linear velocity");
+  t.angular = c.vec3("the angular velocity");
+  return t;
+}
+
+NavSatFix decode_nav_sat_fix(std::string_view bytes, Encoding encoding, const std::string& name) {
+  Cursor c(bytes, encoding, name);
+  NavSatFix f;
+  f.header = c.header();
+  f.status = c.get<std::int8_t>("the status");
+  f.service = c.get<std::uint16_t>("the service");
+  f.latitude = c.f64("the latitude");
+  f.longitude = c.f64("the longitude");
+  f.altitude = c.f64("the altitude");
+  f.covariance = c.doubles<9>("the position covariance");
+  f.covariance_type = c.get<std::uint8_t>("the covariance type");
+  return f;
+}
+
+Imu decode_imu(std::string_view bytes, Encoding encoding, const std::string& name) {
+  Cursor c(bytes, encoding, name);
+  Imu m;
+  m.header = c.header();
+  const double x = c.f64("the orientation"), y = c.f64("the orientation"), z = c.f64("the orientation"), w = c.f64("the orientation");
+  const double n = std::sqrt(x * x + y * y + z * z + w * w);
+  // An IMU without orientation sends zeros (and -1 in the covariance): identity then.
+  if (n > 0.5 && n < 1.5) m.orientation = Eigen::Quaterniond(w, x, y, z).normalized();
+  c.doubles<9>("the orientation's covariance");
+  m.angular_velocity = c.vec3("the angular velocity");
+  c.doubles<9>("the angular velocity's covariance");
+  m.linear_acceleration = c.vec3("the linear acceleration");
+  c.doubles<9>("the linear acceleration's covariance");
+  return m;
+}
+
+std::vector<Transform, Eigen::aligned_allocator<Transform>> decode_tf_message(std::string_view bytes, Encoding encoding, const std::string& name) {
+  Cursor c(bytes, encoding, name);
+  const std::uint32_t n = c.count("the transforms", 64);
+  std::vector<Transform, Eigen::aligned_allocator<Transform>> out(n);
+  for (Transform& t : out) {
+    t.header = c.header();
+    t.child_frame_id = c.str("child_frame_id");
+    t.pose = c.pose("the transform");
+  }
+  return out;
+}
+
+}  // namespace pl::ros
