@@ -6,9 +6,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
-#include <functional>
 
 #include "pl/common/dataset.hpp"
+#include "error_of.hpp"
 #include "pl/common/error.hpp"
 #include "test_util.hpp"
 
@@ -26,15 +26,6 @@ const std::string& recordings() {
     return dir.path();
   }();
   return path;
-}
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const pl::Error& e) {
-    return e.what();
-  }
-  return "(no error)";
 }
 
 void expect_the_drive(const pl::Dataset& ds, const std::string& format) {
@@ -105,10 +96,10 @@ TEST(RecordingDataset, TheThreeFormatsGiveTheSameScansBitForBit) {
 TEST(RecordingDataset, NamedTopicsAreCheckedAndAMissingOneListsWhatThereIs) {
   pl::DatasetOptions o;
   o.points_topic = "/lidar";
-  std::string e = error_of([&] { pl::open_dataset(recordings() + "/drive.bag", o); });
+  std::string e = pl::test::error_of([&] { pl::open_dataset(recordings() + "/drive.bag", o); });
   EXPECT_NE(e.find("no topic /lidar (--points-topic); its sensor_msgs/PointCloud2 topics: /velodyne_points"), std::string::npos) << e;
   o.points_topic = "/odom";
-  e = error_of([&] { pl::open_dataset(recordings() + "/drive.bag", o); });
+  e = pl::test::error_of([&] { pl::open_dataset(recordings() + "/drive.bag", o); });
   EXPECT_NE(e.find("--points-topic /odom is a nav_msgs/Odometry topic"), std::string::npos) << e;
   o.points_topic = "/velodyne_points";
   EXPECT_EQ(pl::open_dataset(recordings() + "/drive.bag", o).size(), 6u);

@@ -8,6 +8,7 @@
 #include <map>
 #include <string>
 
+#include "error_of.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/ros_msgs.hpp"
 
@@ -51,15 +52,6 @@ const std::string& ros1(const std::string& name) {
   auto it = m.find(name);
   if (it == m.end()) throw std::runtime_error("make_ros1_msgs.py gave no message " + name + " (python3-sensor-msgs installed?)");
   return it->second;
-}
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const pl::Error& e) {
-    return e.what();
-  }
-  return "(no error)";
 }
 
 // CDR as ROS 2 writes it: the little-endian encapsulation header, then each primitive aligned to its
@@ -140,7 +132,7 @@ TEST(RosPointCloud2, MakesAbsoluteTimestampsRelativeToTheStamp) {
 }
 
 TEST(RosPointCloud2, RefusesACloudWithoutCoordinatesNamingItsFields) {
-  const std::string e = error_of([] { ros::decode_point_cloud2(ros1("no_xyz"), Encoding::Ros1, "drive.bag: /points"); });
+  const std::string e = pl::test::error_of([] { ros::decode_point_cloud2(ros1("no_xyz"), Encoding::Ros1, "drive.bag: /points"); });
   EXPECT_NE(e.find("drive.bag: /points"), std::string::npos) << e;
   EXPECT_NE(e.find("no x, y and z fields (it has: a)"), std::string::npos) << e;
 }
@@ -148,7 +140,7 @@ TEST(RosPointCloud2, RefusesACloudWithoutCoordinatesNamingItsFields) {
 TEST(RosPointCloud2, RefusesEveryTruncationAndADamagedDataLength) {
   const std::string& full = ros1("velodyne");
   for (std::size_t cut = 0; cut < full.size(); ++cut) {
-    const std::string e = error_of([&] { ros::decode_point_cloud2(full.substr(0, cut), Encoding::Ros1, "v.bag"); });
+    const std::string e = pl::test::error_of([&] { ros::decode_point_cloud2(full.substr(0, cut), Encoding::Ros1, "v.bag"); });
     EXPECT_NE(e.find("v.bag: offset"), std::string::npos) << "cut at " << cut << ": " << e;
   }
   // The data's length (the u32 before the data, which only is_dense follows) made larger than the message.
@@ -162,7 +154,7 @@ TEST(RosPointCloud2, RefusesEveryTruncationAndADamagedDataLength) {
   std::string damaged = full;
   const std::uint32_t huge = 1u << 30;
   std::memcpy(&damaged[at], &huge, 4);
-  const std::string e = error_of([&] { ros::decode_point_cloud2(damaged, Encoding::Ros1, "v.bag"); });
+  const std::string e = pl::test::error_of([&] { ros::decode_point_cloud2(damaged, Encoding::Ros1, "v.bag"); });
   EXPECT_NE(e.find("the data"), std::string::npos) << e;
 }
 
@@ -179,8 +171,8 @@ TEST(RosPointCloud2, RefusesAFieldOutsideThePointAndAShortData) {
     return w.bytes();
   };
   EXPECT_NO_THROW(ros::decode_point_cloud2(cloud(8, 24), Encoding::Cdr, "c"));
-  EXPECT_NE(error_of([&] { ros::decode_point_cloud2(cloud(10, 24), Encoding::Cdr, "c"); }).find("lies outside the point's 12 bytes"), std::string::npos);
-  EXPECT_NE(error_of([&] { ros::decode_point_cloud2(cloud(8, 20), Encoding::Cdr, "c"); }).find("needs 24 bytes of data, has 20"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { ros::decode_point_cloud2(cloud(10, 24), Encoding::Cdr, "c"); }).find("lies outside the point's 12 bytes"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { ros::decode_point_cloud2(cloud(8, 20), Encoding::Cdr, "c"); }).find("needs 24 bytes of data, has 20"), std::string::npos);
 }
 
 TEST(RosPointCloud2, DecodesCdrWithItsAlignment) {
@@ -213,7 +205,7 @@ TEST(RosPointCloud2, DecodesCdrWithItsAlignment) {
   // A big-endian encapsulation is refused by name.
   std::string be = w.bytes();
   be[1] = '\0';
-  EXPECT_NE(error_of([&] { ros::decode_point_cloud2(be, Encoding::Cdr, "c"); }).find("big-endian CDR"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { ros::decode_point_cloud2(be, Encoding::Cdr, "c"); }).find("big-endian CDR"), std::string::npos);
 }
 
 TEST(RosMessages, DecodeOdometryNavSatFixTwistImuAndTf) {
@@ -272,9 +264,9 @@ TEST(RosMessages, RefuseANonUnitQuaternionAndAHugeTransformCount) {
   const std::size_t pose_at = 4 + 8 + 4 + 4 + 4 + 9;  // seq, stamp, "odom", "base_link"
   const double zero = 0.0;
   std::memcpy(&o[pose_at + 6 * 8], &zero, 8);
-  EXPECT_NE(error_of([&] { ros::decode_odometry(o, Encoding::Ros1, "o"); }).find("not a unit quaternion"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { ros::decode_odometry(o, Encoding::Ros1, "o"); }).find("not a unit quaternion"), std::string::npos);
   std::string tf = ros1("tf");
   const std::uint32_t huge = 0x7fffffff;
   std::memcpy(&tf[0], &huge, 4);
-  EXPECT_NE(error_of([&] { ros::decode_tf_message(tf, Encoding::Ros1, "tf"); }).find("cannot fit"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { ros::decode_tf_message(tf, Encoding::Ros1, "tf"); }).find("cannot fit"), std::string::npos);
 }
