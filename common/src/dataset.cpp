@@ -10,6 +10,7 @@
 
 #include "dataset_recording.hpp"
 #include "pl/common/bag.hpp"
+#include "pl/common/cloud_io.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/text.hpp"
 
@@ -31,6 +32,7 @@ const char* Dataset::layout_name() const {
   switch (layout) {
     case DatasetLayout::KittiRaw: return "KITTI raw";
     case DatasetLayout::Recording: return "recording";
+    case DatasetLayout::Frames: return "PCD/PLY frames";
     default: return "KITTI odometry";
   }
 }
@@ -38,14 +40,22 @@ const char* Dataset::layout_name() const {
 Scan Dataset::load_scan(std::size_t i) const {
   if (recording) return recording_frame(*recording, i, false).scan;
   if (i >= scan_paths.size()) throw Error("scan index " + std::to_string(i) + " out of range (dataset has " + std::to_string(scan_paths.size()) + " scans)");
-  return read_kitti_bin(scan_paths[i]);
+  if (layout != DatasetLayout::Frames) return read_kitti_bin(scan_paths[i]);
+  const Cloud cloud = read_cloud(scan_paths[i]);
+  Scan scan(cloud.size());
+  for (std::size_t k = 0; k < cloud.size(); ++k) {
+    const Eigen::Vector3d& q = cloud.points[k];
+    scan[k] = {static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()), cloud.intensity.empty() ? 0.0f : cloud.intensity[k]};
+  }
+  return scan;
 }
 
 Frame Dataset::load_frame(std::size_t i, bool with_rings) const {
   if (recording) return recording_frame(*recording, i, with_rings);  // rings only from a ring field
   Frame f;
   f.scan = load_scan(i);
-  if (with_rings) f.rings = rings(f.scan);
+  // Frames saved as clouds carry no rings; a meta.json with the sensor's vertical angles gives them.
+  if (with_rings && !(layout == DatasetLayout::Frames && meta.sensor.vertical_angles_deg.empty())) f.rings = rings(f.scan);
   f.times = load_point_times(i, f.scan.size());
   return f;
 }
@@ -298,6 +308,80 @@ void check_oxts_record(const std::vector<double>& o, const std::string& path) {
 // than through a float-to-int conversion that is undefined out of range.
 int oxts_posmode(double v) { return v >= 0 && v <= 1000 && v == std::floor(v) ? static_cast<int>(v) : -1; }
 
+// Clouds saved frame by frame (PCL's pcl_recorder, Open3D, a driver's dump): DIR/*.pcd or *.ply in
+// name order (by number when every name is one), their times in times.txt (one a line, seconds), or
+// times and ground-truth LiDAR poses in poses.tum; poses.txt (KITTI, one a frame) gives the ground
+// truth beside times.txt.
+bool has_cloud_frames(const std::string& dir) {
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string ext = e.path().extension().string();
+    if (e.is_regular_file() && (ext == ".pcd" || ext == ".ply")) return true;
+  }
+  return false;
+}
+
+void open_frames_layout(Dataset& ds) {
+  ds.layout = DatasetLayout::Frames;
+  std::vector<std::string> files;
+  bool numbered = true;
+  for (const auto& e : fs::directory_iterator(ds.dir)) {
+    const std::string ext = e.path().extension().string();
+    if (!e.is_regular_file() || (ext != ".pcd" && ext != ".ply")) continue;
+    files.push_back(e.path().string());
+    long long id = 0;
+    numbered = numbered && parse_int(e.path().stem().string(), id) && id >= 0;
+  }
+  std::sort(files.begin(), files.end(), [&](const std::string& a, const std::string& b) {
+    if (!numbered) return a < b;
+    long long x = 0, y = 0;
+    parse_int(fs::path(a).stem().string(), x);
+    parse_int(fs::path(b).stem().string(), y);
+    return x != y ? x < y : a < b;
+  });
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    ds.scan_paths.push_back(files[i]);
+    ds.frame_ids.push_back(static_cast<long>(i));
+  }
+  const std::size_t n = files.size();
+  const std::string times_path = ds.dir + "/times.txt", tum_path = ds.dir + "/poses.tum", kitti_path = ds.dir + "/poses.txt";
+  auto count_error = [&](const std::string& path, std::size_t lines, const char* what) {
+    return Error(path + ": has " + std::to_string(lines) + " " + what + " for " + std::to_string(n) + " frames (" + ds.dir +
+                 "'s .pcd/.ply files in name order): give one a frame");
+  };
+  if (file_exists(times_path)) {
+    const auto times = read_number_lines(times_path, 1, "the frame's time in seconds");
+    if (times.size() != n) throw count_error(times_path, times.size(), "times");
+    for (std::size_t i = 0; i < n; ++i) ds.times.push_back(times.values[i]);
+  }
+  if (file_exists(tum_path)) {
+    Trajectory tum = read_tum_poses(tum_path);
+    if (tum.size() != n) throw count_error(tum_path, tum.size(), "poses");
+    if (ds.times.empty()) ds.times = tum.times;
+    ds.ground_truth = std::move(tum);
+    ds.ground_truth.times = ds.times;
+  } else if (file_exists(kitti_path)) {
+    const auto rows = read_number_lines(kitti_path, 12, "a KITTI pose: the row-major 3x4 matrix");
+    if (rows.size() != n) throw count_error(kitti_path, rows.size(), "poses");
+    ds.ground_truth.format = PoseFormat::Kitti;
+    for (std::size_t i = 0; i < n; ++i) {
+      ds.ground_truth.poses.push_back(pose_from_kitti_row(rows.row(i)));
+      check_finite_pose(ds.ground_truth.poses.back(), kitti_path + ": the pose of frame " + std::to_string(i));
+    }
+  }
+  if (ds.times.empty())
+    throw Error(ds.dir + ": " + std::to_string(n) + " cloud frames but no times: add times.txt (one time in seconds a frame, in name "
+                "order) or poses.tum (TUM: the time and the LiDAR's pose of each frame)");
+  if (!ds.ground_truth.poses.empty()) ds.ground_truth.times = ds.times;
+  for (std::size_t i = 1; i < n; ++i)
+    if (!(ds.times[i] > ds.times[i - 1]))
+      throw Error(ds.dir + ": frame " + std::to_string(i) + " (" + files[i] + ") is not later than the frame before it; the times must grow in name order");
+  // Rings come only from a meta.json with the sensor's vertical angles.
+  ds.meta.sensor.model = "cloud frames";
+  ds.meta.sensor.beams = 1;
+  ds.meta.sensor.point_order = "any";
+  ds.meta.sensor.vertical_angles_deg.clear();
+}
+
 void open_raw_layout(Dataset& ds) {
   ds.layout = DatasetLayout::KittiRaw;
   list_scans(ds.dir + "/velodyne_points/data", ds);
@@ -405,8 +489,11 @@ Dataset open_dataset(const std::string& dir_in, const DatasetOptions& options) {
     open_raw_layout(ds);
   else if (dir_exists(ds.dir + "/velodyne"))
     open_odometry_layout(ds);
+  else if (has_cloud_frames(ds.dir))
+    open_frames_layout(ds);
   else
-    throw Error(ds.dir + ": not a dataset: expected velodyne/ (KITTI odometry layout) or velodyne_points/data/ and oxts/data/ (KITTI raw layout)");
+    throw Error(ds.dir + ": not a dataset: expected velodyne/ (KITTI odometry layout), velodyne_points/data/ and oxts/data/ (KITTI raw "
+                "layout), .pcd or .ply frames with times.txt or poses.tum, or a recording (a .bag, a ROS 2 bag folder, a .mcap)");
 
   std::string meta_path = ds.dir + "/meta.json";
   if (file_exists(meta_path)) {

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "pl/common/cloud_io.hpp"
 #include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "error_of.hpp"
@@ -547,4 +548,46 @@ TEST(Dataset, AFolderInPlaceOfAFileIsNamed) {
   std::filesystem::remove(dir / "oxts/timestamps.txt");
   std::filesystem::create_directories(dir / "oxts/timestamps.txt");
   EXPECT_TRUE(contains(error_of(dir.path()), "oxts/timestamps.txt: is a folder, expected a text file"));
+}
+
+// A folder of cloud frames as PCL or Open3D save them: PCD and PLY files in name order (by number),
+// times from times.txt, or times and the ground truth from poses.tum.
+TEST(Dataset, CloudFramesWithTimesOrTumPoses) {
+  TempDir dir;
+  auto frame = [&](const std::string& name, float x) {
+    pl::Points3d pts = {Eigen::Vector3d(x, 1.0, 2.0), Eigen::Vector3d(x + 1.0, -1.0, 0.5)};
+    pl::write_pcd(dir / name, pts, {3.0f, 4.0f});
+  };
+  frame("2.pcd", 20.0f);
+  frame("10.pcd", 100.0f);  // after 2 by number, before it by name
+  write_file(dir / "1.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n5 6 7\n");
+  // No times yet: refused, naming what to add.
+  std::string e = pl::test::error_of([&] { pl::open_dataset(dir.path()); });
+  EXPECT_NE(e.find("3 cloud frames but no times: add times.txt"), std::string::npos) << e;
+  write_file(dir / "times.txt", "1700000000.0\n1700000000.1\n");
+  e = pl::test::error_of([&] { pl::open_dataset(dir.path()); });
+  EXPECT_NE(e.find("times.txt: has 2 times for 3 frames"), std::string::npos) << e;
+  write_file(dir / "times.txt", "1700000000.0\n1700000000.1\n1700000000.2\n");
+  const pl::Dataset ds = pl::open_dataset(dir.path());
+  EXPECT_EQ(ds.layout, pl::DatasetLayout::Frames);
+  ASSERT_EQ(ds.size(), 3u);
+  EXPECT_DOUBLE_EQ(ds.times[2], 1700000000.2);
+  EXPECT_FALSE(ds.has_ground_truth());
+  EXPECT_FLOAT_EQ(ds.load_scan(0)[0].x, 5.0f);  // 1.ply
+  const pl::Frame f = ds.load_frame(1);          // 2.pcd
+  ASSERT_EQ(f.scan.size(), 2u);
+  EXPECT_FLOAT_EQ(f.scan[1].x, 21.0f);
+  EXPECT_FLOAT_EQ(f.scan[1].intensity, 4.0f);
+  EXPECT_TRUE(f.rings.empty());  // clouds carry no rings
+  EXPECT_FLOAT_EQ(ds.load_scan(2)[0].x, 100.0f);
+  // poses.tum gives the ground truth (and the times where times.txt is absent).
+  std::filesystem::remove(dir / "times.txt");
+  write_file(dir / "poses.tum", "5.0 0 0 0 0 0 0 1\n5.1 1 0 0 0 0 0 1\n5.2 2 0 0 0 0 0 1\n");
+  const pl::Dataset gt = pl::open_dataset(dir.path());
+  ASSERT_TRUE(gt.has_ground_truth());
+  EXPECT_DOUBLE_EQ(gt.times[1], 5.1);
+  EXPECT_DOUBLE_EQ(gt.ground_truth.poses[2].translation().x(), 2.0);
+  write_file(dir / "times.txt", "5.0\n5.2\n5.1\n");  // times.txt wins over the poses' times, and must grow too
+  e = pl::test::error_of([&] { pl::open_dataset(dir.path()); });
+  EXPECT_NE(e.find("is not later than the frame before it"), std::string::npos) << e;
 }

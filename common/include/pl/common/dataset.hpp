@@ -16,7 +16,7 @@
 
 namespace pl {
 
-enum class DatasetLayout { KittiOdometry, KittiRaw, Recording };
+enum class DatasetLayout { KittiOdometry, KittiRaw, Recording, Frames };
 
 // GPS status, from worst to best. OXTS position modes map onto it (see docs/dataset-layout.md).
 enum GpsStatus : int { kGpsNone = 0, kGpsSingle = 1, kGpsDgps = 2, kGpsFloat = 3, kGpsFixed = 4 };
