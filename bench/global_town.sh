@@ -28,7 +28,7 @@ if [[ ! -f "$dir/maps.sqlite" ]]; then
   touch "$dir/sweep-ccw"
 fi
 "$bin/pl-dataset" poses "$dir/drive" --out "$dir/gt.txt" >/dev/null
-awk 'NR % 2 == 0' "$dir/gt.txt" >"$dir/gt_odd.txt"
+grep -v '^#' "$dir/gt.txt" | awk 'NR % 2 == 0' >"$dir/gt_odd.txt"
 odd=$(wc -l <"$dir/gt_odd.txt")
 echo "town loop, epoch 1 with traffic: $odd odd scans; map of epoch 0 at its true poses, with its places"
 

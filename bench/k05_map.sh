@@ -23,5 +23,5 @@ k05_map() {
     mv "$k05/maps.sqlite.partial" "$k05/maps.sqlite"
   fi
   "$bin/pl-dataset" poses "$drive" --out "$k05/gt.txt" >/dev/null
-  awk 'NR % 2 == 0' "$k05/gt.txt" >"$k05/gt_odd.txt"
+  grep -v '^#' "$k05/gt.txt" | awk 'NR % 2 == 0' >"$k05/gt_odd.txt"
 }

@@ -17,13 +17,16 @@ localize() {
   "$bin/pl-localize" --dataset "$rates_drive" --db "${db:-$rates_db}" --map "$rates_map" --beams 16 --scans odd --odometry lidar \
     --init gt --out "$out.tum" --kitti-out "$out.txt" --timing "$out.csv" "$@" >"$out.log"
   # Per scan: error, protection level, registration ms, status.
+  # (Lines of a pose file's header, "# ...", are not poses: r counts a file's other lines.)
   awk '
-    FNR == 1 { file++ }
-    file == 1 { ex[FNR] = $4; ey[FNR] = $8; ez[FNR] = $12; n = FNR; next }
-    file == 2 { gx[FNR] = $4; gy[FNR] = $8; gz[FNR] = $12; next }
+    FNR == 1 { file++; r = 0 }
+    /^#/ { next }
+    { r++ }
+    file == 1 { ex[r] = $4; ey[r] = $8; ez[r] = $12; n = r; next }
+    file == 2 { gx[r] = $4; gy[r] = $8; gz[r] = $12; next }
     { split($0, f, ",") }
-    FNR == 1 { for (i = 1; i in f; i++) col[f[i]] = i; next }
-    { k = FNR - 1; h = (ex[k] - gx[k]) ^ 2 + (ey[k] - gy[k]) ^ 2
+    r == 1 { for (i = 1; i in f; i++) col[f[i]] = i; next }
+    { k = r - 1; h = (ex[k] - gx[k]) ^ 2 + (ey[k] - gy[k]) ^ 2
       printf "%.4f %s %s %s %.4f\n", sqrt(h + (ez[k] - gz[k]) ^ 2), f[col["protection_m"]], f[col["registration_ms"]] + f[col["odometry_ms"]] + f[col["integrity_ms"]], f[col["status"]],
         sqrt(h) }' "$out.txt" "$gt" "$out.csv" >"$out.scans"
 }

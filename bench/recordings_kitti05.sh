@@ -53,7 +53,7 @@ protocol() {
   ape=$("$bin/pl-eval" ape --est "$dir/odd.txt" --gt "$k05/gt_odd.txt" --json)
   local diff="-"
   if [[ -f "$rec/folder/odd.txt" && "$name" != folder ]]; then
-    diff=$(paste -d' ' "$dir/odd.txt" "$rec/folder/odd.txt" |
+    diff=$(paste -d' ' <(grep -v '^#' "$dir/odd.txt") <(grep -v '^#' "$rec/folder/odd.txt") |
       awk '{ d = sqrt(($4 - $16) ^ 2 + ($8 - $20) ^ 2 + ($12 - $24) ^ 2); if (d > m) m = d } END { printf "%.6f", m }')
   fi
   python3 - "$name" "$ape" "$diff" "$(echo "$t1 - $t0" | bc)" "$(echo "$t2 - $t1" | bc)" <<'PY'
@@ -86,7 +86,7 @@ alone() {
 alone folder "$drive"
 for f in k05.bag k05_ros2 k05.mcap; do
   alone "$f" "$rec/$f" --truth-topic /ground_truth
-  paste -d' ' "$rec/alone_$f.txt" "$rec/alone_folder.txt" |
+  paste -d' ' <(grep -v '^#' "$rec/alone_$f.txt") <(grep -v '^#' "$rec/alone_folder.txt") |
     awk -v f="$f" '{ d = sqrt(($4 - $16) ^ 2 + ($8 - $20) ^ 2 + ($12 - $24) ^ 2); if (d > m) m = d } END { printf "  %s: %.6f mm over %d scans\n", f, 1000 * m, NR }'
 done
 

@@ -24,7 +24,7 @@ mkdir -p "$out"
 localize() {
   local name=$1 drive=$2 db=$3
   "$bin/pl-dataset" poses "$drive" --out "$out/$name.gt.txt" >/dev/null
-  awk 'NR % 2 == 0' "$out/$name.gt.txt" >"$out/$name.gt_odd.txt"
+  grep -v '^#' "$out/$name.gt.txt" | awk 'NR % 2 == 0' >"$out/$name.gt_odd.txt"
   "$bin/pl-localize" --dataset "$drive" --db "$db" --map m --beams 16 --scans odd --odometry lidar --init gt \
     --out "$out/$name.tum" --kitti-out "$out/$name.odd.txt" --timing "$out/$name.csv" >"$out/$name.log"
   "$bin/pl-eval" ape --json --est "$out/$name.odd.txt" --gt "$out/$name.gt_odd.txt" >"$out/$name.ape.json"
@@ -62,6 +62,8 @@ out = sys.argv[1]
 def poses(path):
     rows = []
     for line in open(path):
+        if line.startswith('#'):  # the header: what frame, which scans
+            continue
         v = [float(x) for x in line.split()]
         if len(v) == 12:
             rows.append([v[0:4], v[4:8], v[8:12]])

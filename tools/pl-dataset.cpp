@@ -72,7 +72,10 @@ void add_poses(Tool& tool) {
     const pl::Dataset ds = pl::open_dataset(s->dir, s->topics);
     if (!ds.has_ground_truth())
       throw pl::Error(ds.dir + ": no ground truth (a KITTI odometry folder needs poses.txt; a raw drive needs oxts/)");
-    pl::write_trajectory(s->out, ds.ground_truth, *pl::parse_pose_format(s->format));
+    pl::Trajectory gt = ds.ground_truth;
+    gt.frame = "lidar";  // the header says so, and which frame of the drive each line is
+    gt.frame_ids = ds.frame_ids;
+    pl::write_trajectory(s->out, gt, *pl::parse_pose_format(s->format));
     std::printf("wrote %zu ground-truth LiDAR poses to %s (%s)\n", ds.ground_truth.size(), s->out.c_str(), s->format.c_str());
     return 0;
   });

@@ -96,6 +96,7 @@ ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOption
     }
     out.per_scan.times.push_back(t);
     out.per_scan.poses.push_back(r.fused);
+    out.per_scan.frame_ids.push_back(ds.frame_ids.empty() ? static_cast<long>(i) : ds.frame_ids[i]);
     out.registration_ms.push_back(r.register_ms);
     out.total_ms.push_back(latency * 1000.0);
     out.lidar_fused += r.fused_lidar;
@@ -115,6 +116,9 @@ ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOption
       out.fused.poses.push_back(loc.pose_at(feed.time(out_next)).base_in_map);
     }
   }
+  // The poses are the base's; a replay's base is the LiDAR (the dataset's frame; pl-localize sets no
+  // other extrinsics).
+  out.fused.frame = out.per_scan.frame = "lidar";
   return out;
 }
 

@@ -120,7 +120,11 @@ bool parse_kitti_timestamp_ns(const std::string& text, std::int64_t& ns) {
   long doy = (153 * (mo + (mo > 2 ? -3 : 9)) + 2) / 5 + d - 1;
   long doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
   long days = era * 146097 + doe - 719468;
-  ns = ((static_cast<std::int64_t>(days) * 86400 + h * 3600 + mi * 60 + whole) * 1000000000LL) + frac;
+  const std::int64_t seconds = static_cast<std::int64_t>(days) * 86400 + h * 3600 + mi * 60 + whole;
+  // Nanoseconds since 1970 in 64 bits reach 1677 to 2262: beyond that no recording's clock can be.
+  constexpr std::int64_t kMaxSeconds = 9000000000LL;
+  if (seconds > kMaxSeconds || seconds < -kMaxSeconds) return false;
+  ns = seconds * 1000000000LL + frac;
   return true;
 }
 

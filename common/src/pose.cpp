@@ -144,15 +144,92 @@ Pose pose_from_kitti_row(const std::vector<double>& v) {
   return p;
 }
 
+namespace {
+
+std::string trim(const std::string& s) {
+  const std::size_t a = s.find_first_not_of(" \t\r"), b = s.find_last_not_of(" \t\r");
+  return a == std::string::npos ? std::string() : s.substr(a, b - a + 1);
+}
+
+// "1-153:2,160,170-172" -> 1, 3, ..., 153, 160, 170, 171, 172.
+bool parse_frame_ids(const std::string& text, std::vector<long>& ids) {
+  for (std::string_view item : split_fields(text, ",")) {
+    std::string_view range = item, step_text = "1";
+    if (const auto colon = item.find(':'); colon != std::string_view::npos) range = item.substr(0, colon), step_text = item.substr(colon + 1);
+    long long a = 0, b = 0, step = 0;
+    const auto dash = range.find('-', 1);
+    if (!parse_int(std::string(range.substr(0, dash)), a) || !parse_int(std::string(step_text), step) || step < 1) return false;
+    b = a;
+    if (dash != std::string_view::npos && !parse_int(std::string(range.substr(dash + 1)), b)) return false;
+    if (a < 0 || b < a || (b - a) / step > 100000000) return false;
+    for (long long v = a; v <= b; v += step) ids.push_back(static_cast<long>(v));
+  }
+  return true;
+}
+
+std::string format_frame_ids(const std::vector<long>& ids) {
+  std::string out;
+  for (std::size_t i = 0; i < ids.size();) {
+    std::size_t j = i + 1;
+    const long step = j < ids.size() ? ids[j] - ids[i] : 1;
+    while (step > 0 && j < ids.size() && ids[j] - ids[j - 1] == step) ++j;
+    if (!out.empty()) out += ",";
+    if (j - i >= 3) {
+      out += std::to_string(ids[i]) + "-" + std::to_string(ids[j - 1]) + (step == 1 ? "" : ":" + std::to_string(step));
+      i = j;
+    } else {
+      out += std::to_string(ids[i]);
+      ++i;
+    }
+  }
+  return out;
+}
+
+// The header comments of a pose file: "# frame: NAME" and "# frames: IDS" (other comments pass).
+void read_header(const std::string& path, Trajectory& traj) {
+  std::ifstream in(path);
+  std::string line;
+  std::size_t n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    const std::size_t i = line.find_first_not_of(" \t\r");
+    if (i == std::string::npos) continue;
+    if (line[i] != '#') break;
+    std::string body = trim(line.substr(i + 1));
+    if (body.rfind("frame:", 0) == 0) {
+      traj.frame = trim(body.substr(6));
+    } else if (body.rfind("frames:", 0) == 0) {
+      traj.frame_ids.clear();
+      if (!parse_frame_ids(trim(body.substr(7)), traj.frame_ids))
+        fail_at(path, n, "frame numbers like 1-153:2,160 (first-last:step, comma-separated)", line);
+    }
+  }
+}
+
+void write_header(std::FILE* f, const Trajectory& traj) {
+  if (!traj.frame.empty()) std::fprintf(f, "# frame: %s\n", traj.frame.c_str());
+  if (!traj.frame_ids.empty()) std::fprintf(f, "# frames: %s\n", format_frame_ids(traj.frame_ids).c_str());
+}
+
+void check_frame_ids(const Trajectory& traj, const std::string& path) {
+  if (!traj.frame_ids.empty() && traj.frame_ids.size() != traj.poses.size())
+    throw Error(path + ": the header's frames name " + std::to_string(traj.frame_ids.size()) + " frames for " +
+                std::to_string(traj.poses.size()) + " poses");
+}
+
+}  // namespace
+
 Trajectory read_kitti_poses(const std::string& path) {
   LineReader reader(path);
   Trajectory traj;
   traj.format = PoseFormat::Kitti;
+  read_header(path, traj);
   std::string line;
   while (reader.next(line)) {
     auto v = parse_numbers(reader, line, 12, 12, "a KITTI pose: the row-major 3x4 matrix", " \t\r");
     traj.poses.push_back(pose_from_kitti_row(v));
   }
+  check_frame_ids(traj, path);
   return traj;
 }
 
@@ -160,6 +237,7 @@ Trajectory read_tum_poses(const std::string& path) {
   LineReader reader(path);
   Trajectory traj;
   traj.format = PoseFormat::Tum;
+  read_header(path, traj);
   std::string line;
   while (reader.next(line)) {
     auto v = parse_numbers(reader, line, 8, 8, "a TUM pose: t x y z qx qy qz qw", " \t\r");
@@ -168,6 +246,7 @@ Trajectory read_tum_poses(const std::string& path) {
     traj.times.push_back(v[0]);
     traj.poses.push_back(pose_from_tum(v, reader, line));
   }
+  check_frame_ids(traj, path);
   return traj;
 }
 
@@ -189,6 +268,7 @@ std::optional<PoseFormat> parse_pose_format(const std::string& name) {
 
 void write_kitti_poses(const std::string& path, const Trajectory& traj) {
   FilePtr f = open_for_writing(path);
+  write_header(f.get(), traj);
   for (const Pose& p : traj.poses) {
     const auto& m = p.matrix();
     for (int r = 0; r < 3; ++r)
@@ -200,6 +280,7 @@ void write_kitti_poses(const std::string& path, const Trajectory& traj) {
 void write_tum_poses(const std::string& path, const Trajectory& traj) {
   if (!traj.has_times()) throw Error(path + ": TUM poses need a time for every pose (write KITTI instead, or attach times)");
   FilePtr f = open_for_writing(path);
+  write_header(f.get(), traj);
   for (std::size_t i = 0; i < traj.size(); ++i) {
     const Pose& p = traj.poses[i];
     Eigen::Quaterniond q(p.linear());

@@ -482,7 +482,14 @@ TEST(Dataset, TimestampsOutOfRangeAreRefused) {
   EXPECT_FALSE(pl::parse_kitti_timestamp("99999-01-01 00:00:00.0", s));
   EXPECT_FALSE(pl::parse_kitti_timestamp("2011-09-26 13:02:nan", s));
   EXPECT_FALSE(pl::parse_kitti_timestamp("2011-09-26 13:02:1e400", s));
-  ASSERT_TRUE(pl::parse_kitti_timestamp("0001-01-01 00:00:00", s));
+  // Times are kept in nanoseconds since 1970 (64 bits: 1677 to 2262).
+  EXPECT_FALSE(pl::parse_kitti_timestamp("0001-01-01 00:00:00", s));
+  ASSERT_TRUE(pl::parse_kitti_timestamp("1970-01-01 00:00:01.000000001", s));
+  std::int64_t ns = 0;
+  ASSERT_TRUE(pl::parse_kitti_timestamp_ns("2011-09-26 13:04:32.349659964", ns));
+  EXPECT_EQ(ns, 1317042272349659964LL);
+  ASSERT_TRUE(pl::parse_kitti_timestamp_ns("2011-09-26 13:04:32.5", ns));
+  EXPECT_EQ(ns, 1317042272500000000LL);
   TempDir dir;
   write_raw_drive(dir.path(), 2);
   write_file(dir / "oxts/timestamps.txt", "2011-09-26 13:02:25.9\n2011-09-26 13:02:nan\n");

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <functional>
 
 #include "eval_test_util.hpp"
@@ -109,4 +110,70 @@ TEST(EvalMatching, TumNearestGroundTruthWins) {
 }
 
 }  // namespace
+// Headers say which frames a file's lines are: a run that did not start at the drive's first scan
+// pairs with the drive's ground truth by frame, and files that cannot be matched are refused.
+TEST(EvalMatching, FrameNumbersPairARunThatStartedLaterAndRefuseWhatCannotMatch) {
+  Trajectory gt = kitti_trajectory(line_poses(20));
+  gt.frame = "lidar";
+  for (long i = 0; i < 20; ++i) gt.frame_ids.push_back(i);
+  Trajectory est = kitti_trajectory(line_poses(3));
+  est.frame = "lidar";
+  est.frame_ids = {11, 13, 15};
+  PosePairs p = pair_poses(est, gt, "e", "g");
+  EXPECT_EQ(p.gt, (std::vector<std::size_t>{11, 13, 15}));
+  EXPECT_EQ(p.est, (std::vector<std::size_t>{0, 1, 2}));
+  // A ground truth without frame numbers and of another length: no line is known to match.
+  Trajectory plain = kitti_trajectory(line_poses(20));
+  std::string msg = message_of([&] { pair_poses(est, plain, "run.txt", "gt.txt"); });
+  EXPECT_NE(msg.find("run.txt holds the poses of frames 11, 13, 15, but the ground truth gt.txt has 20 lines and no frame numbers"),
+            std::string::npos) << msg;
+  // Cut to the same scans (as many lines), it pairs line by line; so does a run from frame 0.
+  EXPECT_EQ(pair_poses(est, kitti_trajectory(line_poses(3)), "e", "g").gt, (std::vector<std::size_t>{0, 1, 2}));
+  Trajectory first = kitti_trajectory(line_poses(3));
+  first.frame_ids = {0, 1, 2};
+  EXPECT_EQ(pair_poses(first, plain, "e", "g").gt, (std::vector<std::size_t>{0, 1, 2}));
+  // A frame the ground truth does not have.
+  est.frame_ids = {11, 13, 25};
+  msg = message_of([&] { pair_poses(est, gt, "run.txt", "gt.txt"); });
+  EXPECT_NE(msg.find("frame 25 (line 3 of its poses) is not among the ground truth's frames in gt.txt (0-19)"), std::string::npos) << msg;
+  // Poses of different frames.
+  est.frame_ids = {11, 13, 15};
+  gt.frame = "cam0";
+  msg = message_of([&] { pair_poses(est, gt, "run.txt", "gt.txt"); });
+  EXPECT_NE(msg.find("holds poses of the lidar frame but the ground truth gt.txt of the cam0 frame"), std::string::npos) << msg;
+}
+
+TEST(EvalMatching, CameraPosesAgainstLidarPosesAreRefused) {
+  // LiDAR poses drive in x-y (z up); KITTI's cam0 ground truth drives in x-z (y down).
+  Poses lidar, cam;
+  for (int i = 0; i < 50; ++i) {
+    lidar.push_back(make_pose(i, 0.3 * i, 0.01 * (i % 3)));
+    cam.push_back(make_pose(-0.3 * i, 0.01 * (i % 3), i));
+  }
+  Trajectory est = kitti_trajectory(lidar);
+  est.frame = "lidar";
+  const std::string msg = message_of([&] { pair_poses(est, kitti_trajectory(cam), "run.txt", "00.txt"); });
+  EXPECT_NE(msg.find("00.txt looks like camera poses"), std::string::npos) << msg;
+  EXPECT_NO_THROW(pair_poses(est, kitti_trajectory(lidar), "run.txt", "gt.txt"));
+}
+
+// The header round trip: frame and frame numbers written as comments and read back.
+TEST(EvalMatching, PoseFileHeadersRoundTrip) {
+  test::TempDir dir;
+  Trajectory t = kitti_trajectory(line_poses(6));
+  t.frame = "lidar";
+  t.frame_ids = {1, 3, 5, 7, 20, 21};
+  write_trajectory(dir.file("t.txt"), t, PoseFormat::Kitti);
+  const Trajectory back = read_trajectory(dir.file("t.txt"));
+  EXPECT_EQ(back.frame, "lidar");
+  EXPECT_EQ(back.frame_ids, t.frame_ids);
+  EXPECT_EQ(back.size(), 6u);
+  std::ifstream in(dir.file("t.txt"));
+  std::string l1, l2;
+  std::getline(in, l1);
+  std::getline(in, l2);
+  EXPECT_EQ(l1, "# frame: lidar");
+  EXPECT_EQ(l2, "# frames: 1-7:2,20,21");
+}
+
 }  // namespace pl::eval

@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <optional>
 #include <string>
+#include <string>
 #include <vector>
 
 namespace pl {
@@ -19,6 +20,12 @@ struct Trajectory {
   std::vector<Pose, Eigen::aligned_allocator<Pose>> poses;
   std::vector<double> times;  // empty, or one per pose
   PoseFormat format = PoseFormat::Kitti;
+  // What the poses are, when known, written as header comments ("# frame: lidar", "# frames: 1-153:2")
+  // and read back: the coordinate frame whose poses they are (e.g. "lidar"; KITTI's odometry ground
+  // truth is "cam0"), and the dataset's frame number of each pose, so that files whose lines do not
+  // correspond are not compared (pl-eval).
+  std::string frame;
+  std::vector<long> frame_ids;  // empty, or one per pose
 
   std::size_t size() const { return poses.size(); }
   bool has_times() const { return times.size() == poses.size() && !poses.empty(); }
