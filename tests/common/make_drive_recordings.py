@@ -94,4 +94,17 @@ as_ns = [(topic, typ, round(t * 1e9), m) for topic, typ, t, m in msgs]
 writers.write_ros1(os.path.join(out, 'drive.bag'), as_ns, compression='lz4', chunk_threshold=64 * 1024)
 writers.write_ros2(os.path.join(out, 'drive_ros2'), as_ns)
 writers.write_mcap(os.path.join(out, 'drive.mcap'), as_ns)
+
+# The same drive with a ground-truth topic: the LiDAR's pose in "world" at each scan's stamp (a
+# reference system's, e.g. an RTK/INS), with odometry beside it.
+truth = []
+for k in range(6):
+    t = T0 + 0.1 * k
+    o = nm.Odometry()
+    o.header = header(t, 'world')
+    o.child_frame_id = 'velodyne'
+    o.pose.pose.position = gm.Point(100.0 + 1.25 * k, -3.0 + 0.5 * k, 0.125 * k)
+    o.pose.pose.orientation = gm.Quaternion(0, 0, math.sin(0.05 * k), math.cos(0.05 * k))
+    truth.append(('/ground_truth', 'nav_msgs/Odometry', round(t * 1e9), o))
+writers.write_ros1(os.path.join(out, 'drive_truth.bag'), sorted(as_ns + truth, key=lambda m: m[2]), compression='none')
 print(json.dumps({'scans': 6, 'odometry': 12, 'gps': 3}))

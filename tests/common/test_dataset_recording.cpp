@@ -125,3 +125,25 @@ TEST(RecordingDataset, TopicUseIsReportedWithRatesAndFrames) {
   }
   EXPECT_TRUE(scans && odom);
 }
+
+// A ground-truth topic gives each scan the pose recorded at its stamp, exactly (a scan's time in
+// double seconds may round to either side of the stamp it came from), and leaves the odometry topic
+// to be the odometry.
+TEST(RecordingDataset, TruthTopicGivesThePoseAtEachStamp) {
+  const std::string bag = recordings() + "/drive_truth.bag";
+  std::string e = pl::test::error_of([&] { pl::open_dataset(bag); });
+  EXPECT_NE(e.find("several nav_msgs/Odometry topics: /odom /ground_truth; choose one with --odom-topic"), std::string::npos) << e;
+  pl::DatasetOptions o;
+  o.truth_topic = "/ground_truth";
+  const pl::Dataset ds = pl::open_dataset(bag, o);
+  ASSERT_TRUE(ds.has_ground_truth());
+  ASSERT_EQ(ds.ground_truth.size(), 6u);
+  EXPECT_EQ(ds.odometry.size(), 12u);  // /odom, the one Odometry topic besides the truth
+  for (std::size_t k = 0; k < 6; ++k) {
+    const Eigen::Vector3d p(100.0 + 1.25 * k, -3.0 + 0.5 * k, 0.125 * k);
+    EXPECT_EQ(ds.ground_truth.poses[k].translation(), p) << k;  // exactly: the pose at the stamp, not a blend
+    EXPECT_NEAR(pl::yaw_of(ds.ground_truth.poses[k]), 0.1 * k, 1e-12) << k;
+  }
+  EXPECT_EQ(ds.ground_truth.times, ds.times);
+}
+
