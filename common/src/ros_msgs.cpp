@@ -195,7 +195,8 @@ PointCloud decode_point_cloud2(std::string_view bytes, Encoding encoding, const 
     refuse("has no x, y and z fields (it has: " + (have.empty() ? std::string("none") : have) + "); a LiDAR scan needs them");
   }
   const std::uint64_t points = static_cast<std::uint64_t>(width) * height;
-  if (points > 0) {
+  if (points == 0) return out;  // (a height of billions over empty rows would loop for nothing)
+  {
     if (static_cast<std::uint64_t>(width) * point_step > row_step)
       refuse("row of " + std::to_string(width) + " points of " + std::to_string(point_step) + " bytes does not fit its row_step " + std::to_string(row_step));
     const std::uint64_t needed = static_cast<std::uint64_t>(height - 1) * row_step + static_cast<std::uint64_t>(width) * point_step;
@@ -227,14 +228,16 @@ PointCloud decode_point_cloud2(std::string_view bytes, Encoding encoding, const 
     const char* line = data.data() + static_cast<std::size_t>(row) * row_step;
     for (std::uint32_t col = 0; col < width; ++col) {
       const char* p = line + static_cast<std::size_t>(col) * point_step;
-      const double x = value_at(p + fx->offset, fx->type), y = value_at(p + fy->offset, fy->type), z = value_at(p + fz->offset, fz->type);
+      // As float32 (a float64 coordinate beyond its range becomes infinite there, and is dropped too).
+      const float x = static_cast<float>(value_at(p + fx->offset, fx->type)), y = static_cast<float>(value_at(p + fy->offset, fy->type)),
+                  z = static_cast<float>(value_at(p + fz->offset, fz->type));
       if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
         ++out.dropped;
         continue;
       }
       float in = fi ? static_cast<float>(value_at(p + fi->offset, fi->type)) : 0.0f;
       if (!std::isfinite(in)) in = 0.0f;
-      out.points.push_back({static_cast<float>(x), static_cast<float>(y), static_cast<float>(z), in});
+      out.points.push_back({x, y, z, in});
       if (fr) {
         const double r = value_at(p + fr->offset, fr->type);
         if (!(r >= 0 && r < 65536)) refuse("point has ring " + std::to_string(r) + " (expected 0-65535)");
@@ -255,9 +258,10 @@ PointCloud decode_point_cloud2(std::string_view bytes, Encoding encoding, const 
           t = abs_relative ? v : v * abs_scale - stamp_s;
           break;
       }
-      if (!(std::abs(t) < 1.0))
+      const float tf = static_cast<float>(t);  // checked as kept: 0.99999999 s rounds to 1 s in float32
+      if (!(std::abs(tf) < 1.0f))
         refuse("point's time field \"" + ft->name + "\" gives " + std::to_string(t) + " s from the header's stamp (expected within a second: a sweep)");
-      out.times.push_back(static_cast<float>(t));
+      out.times.push_back(tf);
     }
   }
   return out;

@@ -270,3 +270,17 @@ TEST(RosMessages, RefuseANonUnitQuaternionAndAHugeTransformCount) {
   std::memcpy(&tf[0], &huge, 4);
   EXPECT_NE(pl::test::error_of([&] { ros::decode_tf_message(tf, Encoding::Ros1, "tf"); }).find("cannot fit"), std::string::npos);
 }
+
+TEST(RosPointCloud2, ACloudWithNoPointsIsEmptyWhateverItsOtherSide) {
+  // Width 0 and a height of two billion rows: no points, and no loop over the empty rows (the fuzzer
+  // found it took 11 s).
+  CdrWriter w;
+  w.header(1, 0, "l").put<std::uint32_t>(2000000000u).put<std::uint32_t>(0).put<std::uint32_t>(3);
+  const char* names[] = {"x", "y", "z"};
+  for (int k = 0; k < 3; ++k) w.str(names[k]).put<std::uint32_t>(4 * k).put<std::uint8_t>(7).put<std::uint32_t>(1);
+  w.put<std::uint8_t>(0).put<std::uint32_t>(12).put<std::uint32_t>(0).put<std::uint32_t>(0).put<std::uint8_t>(1);
+  const ros::PointCloud c = ros::decode_point_cloud2(w.bytes(), Encoding::Cdr, "c");
+  EXPECT_TRUE(c.points.empty());
+  EXPECT_EQ(c.fields.size(), 3u);
+}
+
