@@ -26,6 +26,11 @@ ensure_packages() {
   for list in "${@:-deploy/debian-packages.txt}"; do
     while read -r pkg; do
       [[ -z "$pkg" || "$pkg" == \#* ]] && continue
+      # "pkg cmd=NAME": satisfied by any NAME on the PATH (npm comes inside other Node.js builds).
+      if [[ "$pkg" == *" cmd="* ]]; then
+        command -v "${pkg##* cmd=}" >/dev/null 2>&1 && continue
+        pkg=${pkg%% *}
+      fi
       dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
     done <"$list"
   done

@@ -6,11 +6,14 @@
 #include <cstdio>
 #include <memory>
 
+#include "pl/client/config_fields.hpp"
 #include "pl/client/replay.hpp"
+#include "pl/client/run_log.hpp"
 #include "pl/client/vehicle_localizer.hpp"
 #include "pl/common/cli.hpp"
 #include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
+#include "pl/common/geo.hpp"
 #include "pl/common/progress.hpp"
 #include "pl/common/stats.hpp"
 
@@ -58,12 +61,81 @@ void choose_start(const pl::Dataset& ds, const std::string& init, bool search, p
     if (fix == ds.gps.end()) throw Error("--init gps: no GPS fix at the start of " + ds.dir + "; give --init x,y,z,yaw");
     start.translation() = ds.to_world(fix->position) - ds.meta.vehicle.gps_lever_arm;  // level, facing +x
     cfg.search = cfg.gps_search;
+    // A drive whose world frame is ENU about its own origin (a recording: its first fix) places the
+    // fix about the map's origin instead: the map may come from another drive.
+    if (ds.projection.kind == pl::WorldProjection::Kind::Enu && ds.projection.world_from_projected.isApprox(Eigen::Isometry3d::Identity())) {
+      const pl::GeoPoint at = fix->position;
+      const Eigen::Vector3d lever = ds.meta.vehicle.gps_lever_arm;
+      replay.start = [at, lever, t0](pl::client::VehicleLocalizer& loc) {
+        Eigen::Isometry3d p = Eigen::Isometry3d::Identity();
+        p.translation() = pl::EnuFrame(loc.map_origin()).to_enu(at) - lever;
+        loc.start_near(p, t0);
+      };
+      return;
+    }
     search = true;
   } else {
     const auto v = pl::parse_number_list(init, 4, "--init");
     start = pl::make_pose(v[0], v[1], v[2], 0, 0, v[3] * M_PI / 180.0);
   }
   replay.start = [start, t0, search](pl::client::VehicleLocalizer& loc) { search ? loc.start_near(start, t0) : loc.start(start, t0); };
+}
+
+// The settings pl-localize sets itself from its options and the drive: the map source (set after
+// --set is applied) and the beams (which also decide whether the rings are handed over). --set
+// refuses them: it would be overruled silently, or contradict the drive.
+const char* owner_of_setting(const std::string& name) {
+  if (name == "localizer/scan/beams") return "--beams";
+  if (name == "localizer/scan/sensor_beams") return "the drive's sensor";
+  if (name == "tiles/server") return "--server";
+  if (name == "store_path") return "--db";
+  if (name == "tiles/map") return "--map";
+  return nullptr;
+}
+
+// --set NAME=VALUE, checked while parsing (against a scratch config: the value is applied later).
+std::string setting_problem(const std::string& text) {
+  const auto eq = text.find('=');
+  if (eq == std::string::npos)
+    return "--set takes NAME=VALUE, got \"" + text + "\"; pl-localize --list-settings lists the names";
+  const std::string name = text.substr(0, eq);
+  if (const char* owner = owner_of_setting(name))
+    return "--set " + name + ": pl-localize sets it from " + owner + "; use that instead";
+  pl::client::VehicleLocalizerConfig scratch;
+  bool known = false;
+  for (const auto& f : pl::client::config_fields(scratch)) known = known || f.name == name;
+  try {
+    pl::client::set_config_field(scratch, name, text.substr(eq + 1));
+  } catch (const Error& e) {
+    // "--set X takes a number, got ..." names the setting already; an unknown name points at the list.
+    return known ? std::string("--set ") + e.what() : std::string("--set: ") + e.what() + "; pl-localize --list-settings lists them all";
+  }
+  return "";
+}
+
+void apply_settings(pl::client::VehicleLocalizerConfig& cfg, const std::vector<std::string>& settings) {
+  for (const std::string& s : settings) {
+    const auto eq = s.find('=');
+    pl::client::set_config_field(cfg, s.substr(0, eq), s.substr(eq + 1));
+  }
+}
+
+// --list-settings: NAME=VALUE (the value before the drive is read: the defaults, with the options
+// and --set given), then what it does and what it takes; one a line.
+void list_settings(pl::client::VehicleLocalizerConfig cfg, const std::vector<std::string>& settings) {
+  apply_settings(cfg, settings);
+  const auto fields = pl::client::config_fields(cfg);
+  std::vector<std::string> lefts;
+  std::size_t width = 0;
+  for (const auto& f : fields) {
+    lefts.push_back(f.name + "=" + pl::client::config_field_text(f));
+    width = std::max(width, lefts.back().size());
+  }
+  for (std::size_t i = 0; i < fields.size(); ++i) {
+    const char* owner = owner_of_setting(fields[i].name);
+    std::printf("%-*s  %s (%s%s%s)\n", static_cast<int>(width), lefts[i].c_str(), fields[i].help.c_str(),
+                pl::client::config_field_type(fields[i]), owner ? "; pl-localize sets it from " : "", owner ? owner : "");
+  }
 }
 
 }  // namespace
@@ -74,7 +146,7 @@ int main(int argc, char** argv) {
   CLI::App& app = tool.app();
   pl::client::VehicleLocalizerConfig cfg;
   pl::client::LocalizerConfig& lc = cfg.localizer;
-  std::string dataset, server, db, out, kitti_out, timing_out, odometry = "auto", init, init_search = "on", scans = "all";
+  std::string dataset, server, db, out, kitti_out, timing_out, log_out, odometry = "auto", init, init_search = "on", scans = "all";
   long long version = 0;
   int beams = 0;
   std::size_t every = 1, phase = 0, first = 0, count = std::numeric_limits<std::size_t>::max();
@@ -126,10 +198,29 @@ int main(int argc, char** argv) {
   cli::output_file(app, "--out", out, "the fused poses (TUM)")->required();
   cli::output_file(app, "--kitti-out", kitti_out, "one pose per scan (KITTI)");
   cli::output_file(app, "--timing", timing_out, "per-scan CSV: times, pairs, health");
+  pl::client::RunLogOptions log_options;
+  cli::output_file(app, "--log", log_out, "the run as an MCAP file Foxglove opens: fused poses, scans as registered, the ROI "
+                   "map's tiles, GPS fixes, per-scan health and timings (docs/run-logs.md)");
+  cli::number(app, "--log-scan-voxel", log_options.scan_voxel_m, "--log: the scans' points thinned to one per voxel of this, m",
+              cli::above(0));
+  cli::number(app, "--log-map-voxel", log_options.map_voxel_m, "--log: the map tiles' points thinned to one per voxel of this, m",
+              cli::above(0));
   cli::output_file(app, "--cache", cfg.tiles.cache_path, "the tile client's disk cache (SQLite)");
   cli::number(app, "--cache-mb", cfg.tiles.memory_mb, "decoded tiles kept in memory, MiB", cli::above(0));
   app.add_option("--token", cfg.tiles.token, "bearer token when the server requires one for reads");
   app.add_flag("--realtime", realtime, "pace the replay at the drive's clock");
+  // Every other setting by name (pl/client/config_fields.hpp, the table a ROS node's parameters use).
+  std::vector<std::string> settings;
+  app.add_option("--set", settings, "any localizer setting, repeatable; applied after the other options and what is taken "
+                 "from the drive (--list-settings lists them)")
+      ->type_name("NAME=VALUE")
+      ->allow_extra_args(false)
+      ->check(CLI::Validator([](std::string& text) { return setting_problem(text); }, ""));
+  // Defined after --set: CLI11 runs the callbacks in the options' order, so the list shows the --set values.
+  app.add_flag_callback("--list-settings", [&] {
+        list_settings(cfg, settings);
+        throw CLI::Success();
+      }, "print every setting --set takes, NAME=VALUE with its value, what it does and its type, and exit");
 
   tool.body([&] {
     if (server.empty() == db.empty()) throw Error("give exactly one of --server URL (pl-server) or --db FILE (a local map store)");
@@ -176,6 +267,8 @@ int main(int argc, char** argv) {
     // auto: on for scans that carry their points' times (the sensor says it sweeps), off otherwise.
     lc.compensate_motion = deskew == "on" || (deskew == "auto" && ds.has_point_times());
     if (ds.meta.sensor.rate_hz > 0) lc.sweep_s = 1.0 / ds.meta.sensor.rate_hz;
+    // --set last, over the options and the drive's values; before the start, which copies gps_search.
+    apply_settings(cfg, settings);
     choose_start(ds, init.empty() ? (ds.gps.empty() ? "gt" : "gps") : init, init_search == "on", cfg, replay);
     if (db.empty()) cfg.tiles.server = server;
     else cfg.store_path = db;
@@ -184,12 +277,19 @@ int main(int argc, char** argv) {
     std::unique_ptr<std::FILE, int (*)(std::FILE*)> timing(timing_out.empty() ? nullptr : std::fopen(timing_out.c_str(), "w"), std::fclose);
     if (!timing_out.empty() && !timing) throw Error("cannot write " + timing_out);
     replay.timing = timing.get();
+    std::unique_ptr<pl::client::RunLog> log;
+    if (!log_out.empty()) {
+      log_options.scan = lc.scan;  // the points the localizer keeps (beams, field of view, range)
+      log = std::make_unique<pl::client::RunLog>(log_out, log_options);
+      replay.log = log.get();
+    }
     pl::Progress progress("localizing", replay.scans.size());
     replay.progress = [&](std::size_t done, std::size_t) { progress.update(done); };
     const pl::client::ReplayResult r = pl::client::replay(ds, loc, replay);
     progress.finish();
     if (const std::string e = loc.last_error(); !e.empty()) std::fprintf(stderr, "pl-localize: warning: %s\n", e.c_str());
     timing.reset();
+    if (log) log->close();
     pl::write_tum_poses(out, r.fused);
     if (!kitti_out.empty()) pl::write_kitti_poses(kitti_out, r.per_scan);
 
@@ -205,6 +305,13 @@ int main(int argc, char** argv) {
                 pl::percentile(r.total_ms, 99));
     std::printf("  fused poses: %zu (%.1f Hz over %.1f s of drive) -> %s\n", r.fused.size(),
                 span > 0 ? static_cast<double>(r.fused.size()) / span : 0.0, span, out.c_str());
+    if (log) {
+      const auto& c = log->counts();
+      std::printf("  log: %llu poses, %llu scans, %llu map updates, %llu GPS fixes -> %s (%.1f MB)\n",
+                  static_cast<unsigned long long>(c.at("/pose")), static_cast<unsigned long long>(c.at("/scan")),
+                  static_cast<unsigned long long>(c.at("/map")), static_cast<unsigned long long>(c.at("/gps")), log_out.c_str(),
+                  static_cast<double>(log->bytes()) / 1e6);
+    }
     if (db.empty()) {
       const auto st = loc.tile_status();
       std::printf("  tiles: %zu fetched, %zu from the disk cache, %zu failures, %zu retries%s%s\n", st.fetched, st.from_disk, st.failures,

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <thread>
 
+#include "pl/client/run_log.hpp"
 #include "pl/common/error.hpp"
 
 namespace pl::client {
@@ -43,8 +44,20 @@ ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOption
   const auto time_of = [&](std::size_t k) { return ds.times[o.scans[k]] + (o.time_shift.empty() ? 0.0 : o.time_shift[k]); };
   ReplayResult out;
   out.fused.format = PoseFormat::Tum;
+  // Every fused pose output goes through here (and to the log).
+  const auto output = [&](double tj, const Eigen::Isometry3d& pose) {
+    out.fused.times.push_back(tj);
+    out.fused.poses.push_back(pose);
+    if (o.log) o.log->pose(tj, pose);
+  };
   OdometryFeed feed{ds, o.odometry};
   const double t0 = time_of(0);
+  // The drive's GPS fixes from a second before the first scan, logged as the replay passes them.
+  std::size_t gps_next = 0;
+  while (gps_next < ds.gps.size() && ds.gps[gps_next].t < t0 - 1.0) ++gps_next;
+  const auto log_gps = [&](double until) {
+    for (; o.log && gps_next < ds.gps.size() && ds.gps[gps_next].t <= until; ++gps_next) o.log->gps(ds.gps[gps_next]);
+  };
   feed.until(loc, t0 + kAhead);
   if (o.start) o.start(loc);
   if (o.timing)
@@ -66,12 +79,11 @@ ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOption
       if (wait > 0) std::this_thread::sleep_for(std::chrono::duration<double>(wait));
     }
     feed.until(loc, t + kAhead);
+    log_gps(t);
     std::vector<std::pair<double, Eigen::Isometry3d>> pending;  // samples the result arrives too late for
     if (odometry) {
-      for (; out_next < feed.size() && feed.time(out_next) < t; ++out_next) {
-        out.fused.times.push_back(feed.time(out_next));
-        out.fused.poses.push_back(loc.pose_at(feed.time(out_next)).base_in_map);
-      }
+      for (; out_next < feed.size() && feed.time(out_next) < t; ++out_next)
+        output(feed.time(out_next), loc.pose_at(feed.time(out_next)).base_in_map);
       for (std::size_t j = out_next; j < feed.size() && feed.time(j) < t + kAhead; ++j)
         pending.emplace_back(feed.time(j), loc.pose_at(feed.time(j)).base_in_map);
     }
@@ -86,13 +98,15 @@ ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOption
       // Poses between the scan and the moment its result is ready were output before the correction.
       for (const auto& [tj, pj] : pending) {
         if (tj >= t + latency) break;
-        out.fused.times.push_back(tj);
-        out.fused.poses.push_back(pj);
+        output(tj, pj);
         ++out_next;
       }
     } else {
-      out.fused.times.push_back(t);
-      out.fused.poses.push_back(r.fused);
+      output(t, r.fused);
+    }
+    if (o.log) {
+      o.log->scan(r, frame.scan, frame.rings, latency * 1000.0);
+      o.log->map(t, loc.map_tiles());
     }
     out.per_scan.times.push_back(t);
     out.per_scan.poses.push_back(r.fused);
@@ -111,11 +125,10 @@ ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOption
     if (o.progress) o.progress(k + 1, o.scans.size());
   }
   if (odometry) {
-    for (; out_next < feed.size() && feed.time(out_next) <= time_of(o.scans.size() - 1); ++out_next) {
-      out.fused.times.push_back(feed.time(out_next));
-      out.fused.poses.push_back(loc.pose_at(feed.time(out_next)).base_in_map);
-    }
+    for (; out_next < feed.size() && feed.time(out_next) <= time_of(o.scans.size() - 1); ++out_next)
+      output(feed.time(out_next), loc.pose_at(feed.time(out_next)).base_in_map);
   }
+  log_gps(time_of(o.scans.size() - 1));
   // The poses are the base's; a replay's base is the LiDAR (the dataset's frame; pl-localize sets no
   // other extrinsics).
   out.fused.frame = out.per_scan.frame = "lidar";

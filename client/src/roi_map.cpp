@@ -51,7 +51,7 @@ std::size_t RoiMap::update(const std::vector<MapTile>& tiles) {
   std::size_t changes = 0;
   for (auto it = held_.begin(); it != held_.end();) {
     auto w = wanted.find(it->first);
-    if (w == wanted.end() || w->second->hash != it->second) {
+    if (w == wanted.end() || w->second->hash != it->second.hash) {
       map_->remove(part_of(it->first));
       it = held_.erase(it);
       ++changes;
@@ -69,10 +69,17 @@ std::size_t RoiMap::update(const std::vector<MapTile>& tiles) {
       } else {
         map_->add(part_of(key), tile->cloud->points, tile->cloud->normals);
       }
-      held_[key] = tile->hash;
+      held_[key] = *tile;
       ++changes;
     }
   return changes;
+}
+
+std::vector<MapTile> RoiMap::held_tiles() const {
+  std::vector<MapTile> out;
+  out.reserve(held_.size());
+  for (const auto& [key, tile] : held_) out.push_back(tile);
+  return out;
 }
 
 }  // namespace pl::client

@@ -27,6 +27,7 @@ StoreTiles::StoreTiles(const std::string& db_path, const std::string& map, long 
   impl_ = std::make_unique<Impl>(Impl{std::move(db), map, {}, {}});
   for (const auto& t : impl_->db.list_tiles(map, version)) impl_->hashes[t.key] = t.hash;
   tile_size_ = info->tile_size;
+  origin_ = info->origin;
   version_ = version;
 }
 

@@ -477,6 +477,7 @@ TileClientStatus TileClient::status() const {
   s.ready = impl_->ready;
   s.version = impl_->ready ? impl_->manifest.version : 0;
   s.tile_size = impl_->ready ? impl_->manifest.tile_size : 0;
+  if (impl_->ready) s.origin = impl_->manifest.origin;
   s.tiles_in_memory = impl_->memory.count();
   s.bytes_in_memory = impl_->memory.bytes();
   return s;

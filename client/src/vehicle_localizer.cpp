@@ -40,6 +40,7 @@ struct VehicleLocalizer::Impl {
   std::unique_ptr<StoreTiles> store;
   double tile_size = 0;
   long long version = 0;
+  GeoPoint origin;
   std::unique_ptr<Localizer> loc;
 
   mutable std::mutex m;
@@ -244,6 +245,7 @@ VehicleLocalizer::VehicleLocalizer(const VehicleLocalizerConfig& cfg) : impl_(st
     m.store = std::make_unique<StoreTiles>(cfg.store_path, cfg.tiles.map, cfg.tiles.version.value_or(0));
     m.tile_size = m.store->tile_size();
     m.version = m.store->version();
+    m.origin = m.store->origin();
   } else {
     TileClientConfig tc = cfg.tiles;
     tc.radius_m = std::max(tc.radius_m, cfg.localizer.roi_radius_m + 20.0);
@@ -254,6 +256,7 @@ VehicleLocalizer::VehicleLocalizer(const VehicleLocalizerConfig& cfg) : impl_(st
     const TileClientStatus st = m.client->status();
     m.tile_size = st.tile_size;
     m.version = st.version;
+    m.origin = st.origin;
   }
   if (cfg.wheel_base_m > 0) m.drive.emplace(cfg.wheel_base_m);
   Impl* raw = impl_.get();
@@ -421,7 +424,16 @@ std::string VehicleLocalizer::last_error() const {
   return impl_->error;
 }
 
+std::vector<MapTile> VehicleLocalizer::map_tiles() const {
+  std::unique_lock<std::mutex> lk(impl_->m);
+  // The worker changes the ROI map only while busy, and cannot become busy without the lock.
+  impl_->cv.wait(lk, [&] { return !impl_->busy; });
+  const RoiMap* map = impl_->loc->map();
+  return map ? map->held_tiles() : std::vector<MapTile>{};
+}
+
 double VehicleLocalizer::tile_size() const { return impl_->tile_size; }
+GeoPoint VehicleLocalizer::map_origin() const { return impl_->origin; }
 long long VehicleLocalizer::map_version() const { return impl_->version; }
 TileClientStatus VehicleLocalizer::tile_status() const { return impl_->client ? impl_->client->status() : TileClientStatus{}; }
 

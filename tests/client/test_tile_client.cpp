@@ -480,6 +480,11 @@ TEST(TileClient, TilesForAFocusEqualTheServersTilesDecoded) {
   auto s = client.status();
   EXPECT_EQ(s.version, 1);
   EXPECT_DOUBLE_EQ(s.tile_size, 20.0);
+  const auto info = pl::store::Store::open(f.db, false).find_map("town");  // the origin of the map's frame, as stored
+  ASSERT_TRUE(info);
+  EXPECT_EQ(s.origin.lat_deg, info->origin.lat_deg);
+  EXPECT_EQ(s.origin.lon_deg, info->origin.lon_deg);
+  EXPECT_EQ(s.origin.alt_m, info->origin.alt_m);
   Vector2d p(5, -12);
   client.set_focus(p, p);
   ASSERT_TRUE(client.wait_for(p, 30, 30)) << client.status().last_error;

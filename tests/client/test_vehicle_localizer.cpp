@@ -64,6 +64,9 @@ TEST(VehicleLocalizer, ThreeThreadsOdometryScansAndPosesWithAnOffsetLidar) {
   cfg.base_from_lidar = pl::make_pose(0.8, 0.0, 1.8, 0, 0, 0.15);  // forward, up and turned
   VehicleLocalizer loc(cfg);
   EXPECT_EQ(loc.tile_size(), kTile);
+  EXPECT_EQ(loc.map_origin().lat_deg, 49.0);  // the store's: GPS fixes go into the map frame about it
+  EXPECT_EQ(loc.map_origin().lon_deg, 8.4);
+  EXPECT_EQ(loc.map_origin().alt_m, 110.0);
   EXPECT_FALSE(loc.pose_at(0.0).valid);
   // Odometry with a 3 % scale error: the LiDAR must keep correcting it.
   auto odometry = [](double t) {

@@ -15,6 +15,8 @@
 
 namespace pl::client {
 
+class RunLog;  // pl/client/run_log.hpp
+
 enum class OdometrySource { None, Encoder, Poses };
 
 struct ReplayOptions {
@@ -29,6 +31,10 @@ struct ReplayOptions {
   std::function<void(std::size_t done, std::size_t total)> progress;
   // Starts the localizer (start, start_near) once the odometry up to the first scan is given.
   std::function<void(VehicleLocalizer&)> start;
+  // Optional: the run written as it goes (pl-localize --log): every fused pose output, each scan with
+  // its report, the ROI map's tiles when they change, the drive's GPS fixes over the replayed span.
+  // Written after a scan's result and its latency are taken, so a log never changes the poses.
+  RunLog* log = nullptr;
 };
 
 struct ReplayResult {

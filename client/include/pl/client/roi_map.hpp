@@ -40,13 +40,16 @@ class RoiMap {
   const Eigen::Vector3d& anchor() const { return map_->anchor(); }
   double cell_m() const { return map_->cell_m(); }
   std::size_t tiles() const { return held_.size(); }
+  // The tiles held, in key order: the handles given to update() (their clouds are shared with the
+  // tile source, not copied; the ROI keeps them alive). For logs and displays.
+  std::vector<MapTile> held_tiles() const;
   std::size_t points() const { return map_->points(); }
   std::size_t cells() const { return map_->cells(); }
 
  private:
   double thin_m_ = 0;
   std::unique_ptr<registration::PointMap> map_;
-  std::map<TileKey, std::string> held_;  // tile -> content hash
+  std::map<TileKey, MapTile> held_;
 };
 
 }  // namespace pl::client

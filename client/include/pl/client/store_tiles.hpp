@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "pl/client/map_tile.hpp"
+#include "pl/common/geo.hpp"
 
 namespace pl::client {
 
@@ -21,6 +22,7 @@ class StoreTiles {
   ~StoreTiles();
   double tile_size() const { return tile_size_; }
   long long version() const { return version_; }
+  const GeoPoint& origin() const { return origin_; }  // of the map's ENU frame
   // Every tile of the version within `radius` of `center`, decoded.
   std::vector<MapTile> near(const Eigen::Vector2d& center, double radius);
   // The version's places (opaque bytes, checked against their hash as the store reads them);
@@ -31,6 +33,7 @@ class StoreTiles {
   struct Impl;
   std::unique_ptr<Impl> impl_;
   double tile_size_ = 0;
+  GeoPoint origin_;
   long long version_ = 0;
 };
 

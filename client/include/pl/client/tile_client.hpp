@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "pl/client/map_tile.hpp"
+#include "pl/common/geo.hpp"
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
 
@@ -55,6 +56,7 @@ struct TileClientStatus {
   bool online = false;  // the last request to the server succeeded
   long long version = 0;
   double tile_size = 0;
+  GeoPoint origin;       // of the map's ENU frame (the manifest's), once ready
   std::size_t tiles_in_memory = 0, bytes_in_memory = 0;  // bytes: decoded_size of the tiles held
   std::size_t fetched = 0;    // tiles fetched from the server
   std::size_t from_disk = 0;  // tiles loaded from the disk cache

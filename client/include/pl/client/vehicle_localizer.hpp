@@ -113,7 +113,14 @@ class VehicleLocalizer {
   void on_scan(std::function<void(const ScanReport&)> callback);
   // Errors of the worker (a failed start, a start search that found nothing); empty when fine.
   std::string last_error() const;
+  // The tiles of the ROI map the scans are registered against (empty before the start), for logs
+  // and displays (pl-localize --log). Waits while a scan is being registered (the worker changes the
+  // map then); the clouds are shared, not copied.
+  std::vector<MapTile> map_tiles() const;
   double tile_size() const;
+  // The geodetic origin of the map's ENU frame: GPS fixes (latitude, longitude) go into the map frame
+  // with EnuFrame(map_origin()).to_enu().
+  GeoPoint map_origin() const;
   long long map_version() const;
   TileClientStatus tile_status() const;  // default-constructed with a local store
 

@@ -1,0 +1,61 @@
+#include "convert.hpp"
+
+#include <cmath>
+
+#include "pl/common/error.hpp"
+#include "pl/common/pose.hpp"
+
+namespace pl::ros1 {
+
+geometry_msgs::Pose to_msg(const Eigen::Isometry3d& pose) {
+  geometry_msgs::Pose m;
+  const Eigen::Quaterniond q(pose.rotation());
+  m.position.x = pose.translation().x();
+  m.position.y = pose.translation().y();
+  m.position.z = pose.translation().z();
+  m.orientation.x = q.x();
+  m.orientation.y = q.y();
+  m.orientation.z = q.z();
+  m.orientation.w = q.w();
+  return m;
+}
+
+geometry_msgs::Transform to_transform_msg(const Eigen::Isometry3d& pose) {
+  const geometry_msgs::Pose p = to_msg(pose);
+  geometry_msgs::Transform t;
+  t.translation.x = p.position.x;
+  t.translation.y = p.position.y;
+  t.translation.z = p.position.z;
+  t.rotation = p.orientation;
+  return t;
+}
+
+namespace {
+Eigen::Isometry3d make(double x, double y, double z, double qx, double qy, double qz, double qw) {
+  Eigen::Quaterniond q(qw, qx, qy, qz);
+  if (!(q.norm() > 0.5)) q = Eigen::Quaterniond::Identity();  // all zeros: an unset orientation
+  Eigen::Isometry3d p = Eigen::Isometry3d::Identity();
+  p.linear() = q.normalized().toRotationMatrix();
+  p.translation() = Eigen::Vector3d(x, y, z);
+  return p;
+}
+}  // namespace
+
+Eigen::Isometry3d from_msg(const geometry_msgs::Pose& m) {
+  return make(m.position.x, m.position.y, m.position.z, m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w);
+}
+
+Eigen::Isometry3d from_msg(const geometry_msgs::Transform& m) {
+  return make(m.translation.x, m.translation.y, m.translation.z, m.rotation.x, m.rotation.y, m.rotation.z, m.rotation.w);
+}
+
+Eigen::Isometry3d pose_from_list(const std::vector<double>& v, const std::string& what) {
+  if (v.size() != 6)
+    throw Error(what + ": expected 6 numbers [x, y, z, roll, pitch, yaw] (metres, degrees), got " + std::to_string(v.size()));
+  for (double x : v)
+    if (!std::isfinite(x)) throw Error(what + ": every number must be finite");
+  const double d = M_PI / 180.0;
+  return make_pose(v[0], v[1], v[2], v[3] * d, v[4] * d, v[5] * d);
+}
+
+}  // namespace pl::ros1
