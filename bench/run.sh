@@ -58,3 +58,7 @@ bash "$(dirname "$0")/gloam_kitti05.sh" "$bin" "$root/build/bench"
 echo
 echo "== recordings_kitti05: drive 0005 as a ROS 1 bag (rosbag), a ROS 2 bag and MCAP, against the folder; reading speed"
 bash "$(dirname "$0")/recordings_kitti05.sh" "$bin" "$root/build/bench"
+
+echo
+echo "== ros1_kitti05: the ROS 1 node on drive 0005's bag (rosbag play) against pl-localize on the same bag"
+bash "$(dirname "$0")/ros1_kitti05.sh" "$bin" "$root/build/bench"

@@ -54,8 +54,9 @@ Eigen::Isometry3d pose_from_list(const std::vector<double>& v, const std::string
     throw Error(what + ": expected 6 numbers [x, y, z, roll, pitch, yaw] (metres, degrees), got " + std::to_string(v.size()));
   for (double x : v)
     if (!std::isfinite(x)) throw Error(what + ": every number must be finite");
-  const double d = M_PI / 180.0;
-  return make_pose(v[0], v[1], v[2], v[3] * d, v[4] * d, v[5] * d);
+  // Degrees to radians as pl-localize --init does it (x * pi / 180, in that order): the same numbers
+  // give the same bits.
+  return make_pose(v[0], v[1], v[2], v[3] * M_PI / 180.0, v[4] * M_PI / 180.0, v[5] * M_PI / 180.0);
 }
 
 }  // namespace pl::ros1
