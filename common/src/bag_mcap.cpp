@@ -50,25 +50,16 @@
 #include <vector>
 
 #include "byte_reader.hpp"
+#include "mcap_format.hpp"
 #include "pl/common/bag.hpp"
 #include "pl/common/error.hpp"
 
 namespace pl::bag {
 namespace {
 
-constexpr std::string_view kMagic("\x89MCAP0\r\n", 8);
+using namespace mcap_format;  // the magic and the opcodes
 constexpr std::uint64_t kOutsideChunks = std::numeric_limits<std::uint64_t>::max();
 constexpr std::size_t kRecordPrefix = 9;  // opcode u8 + length u64
-
-enum Op : std::uint8_t {
-  kHeader = 0x01,
-  kFooter = 0x02,
-  kSchema = 0x03,
-  kChannel = 0x04,
-  kMessage = 0x05,
-  kChunk = 0x06,
-  kDataEnd = 0x0f,
-};
 
 // The most a compressed chunk can expand, per byte of its compressed records: zstd's RLE blocks make
 // 128 KiB of 4 bytes (100 MB of zeros compress to some 3,100 bytes, 32,000:1), LZ4's matches at most

@@ -71,7 +71,6 @@ const bag::Topic* choose(const bag::Reader& r, const std::string& type, const st
   return &r.topics()[index];
 }
 
-double seconds(std::int64_t ns) { return ns_to_seconds(ns); }
 
 // Frames of /tf_static as poses in their tree's root.
 class StaticTree {
@@ -153,8 +152,8 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
   std::vector<std::string> topic_frames(r.topics().size());
   for (const bag::MessageRef& m : r.messages()) {
     const bag::Topic& t = r.topics()[m.topic];
-    topic_times[m.topic].push_back(seconds(m.time_ns));
-    const std::string name = path + ": " + t.name + " message at " + std::to_string(seconds(m.time_ns)) + " s";
+    topic_times[m.topic].push_back(ns_to_seconds(m.time_ns));
+    const std::string name = path + ": " + t.name + " message at " + std::to_string(ns_to_seconds(m.time_ns)) + " s";
     if (m.topic == pi) {
       // Only the header: the points are decoded when the scan is loaded.
       const std::string_view bytes = r.read(m);
@@ -183,7 +182,7 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
   std::stable_sort(scans.begin(), scans.end(), [](const Stamped& a, const Stamped& b) { return a.stamp < b.stamp; });
   for (std::size_t i = 0; i < scans.size(); ++i) {
     rec->scans.push_back(scans[i].ref);
-    ds.times.push_back(seconds(scans[i].stamp));
+    ds.times.push_back(ns_to_seconds(scans[i].stamp));
     ds.frame_ids.push_back(static_cast<long>(i));
   }
 
@@ -198,8 +197,9 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
   ds.meta.sensor.vertical_angles_deg.clear();
   if (ds.times.size() > 1) ds.meta.sensor.rate_hz = (ds.times.size() - 1) / std::max(1e-9, ds.times.back() - ds.times.front());
   if (beams == 0) info.notes.push_back("the clouds have no ring field: no beams can be chosen (--beams needs one)");
-  if (!first.times.empty()) ds.point_times_dir = "(the clouds' time field)";
-  else info.notes.push_back("the clouds have no per-point time field: a sweep is timed by its points' azimuths");
+  ds.point_times_in_clouds = !first.times.empty();
+  if (!ds.point_times_in_clouds)
+    info.notes.push_back("the clouds have no per-point time field: a sweep is timed by its points' azimuths");
 
   // Odometry: the LiDAR's poses in the odometry frame, through the base frame's extrinsics.
   if (!odo.empty()) {
@@ -209,7 +209,7 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
       info.notes.push_back("no /tf_static path from " + info.base_frame + " to " + info.lidar_frame + ": odometry taken as the LiDAR's own");
       base_lidar = Pose::Identity();
     }
-    for (const ros::Odometry& o : odo) ds.odometry.push_back({seconds(o.header.stamp_ns), Pose(o.pose * *base_lidar)});
+    for (const ros::Odometry& o : odo) ds.odometry.push_back({ns_to_seconds(o.header.stamp_ns), Pose(o.pose * *base_lidar)});
     std::stable_sort(ds.odometry.begin(), ds.odometry.end(), [](const OdometrySample& a, const OdometrySample& b) { return a.t < b.t; });
   }
 
@@ -236,7 +236,7 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
         p = (hi - 1)->pose;
       } else if (hi == gt.begin() || hi == gt.end()) {
         throw Error(path + ": the truth topic " + truth->name + " does not cover the scan at " + std::to_string(t) + " s (it spans " +
-                    std::to_string(seconds(gt.front().header.stamp_ns)) + " to " + std::to_string(seconds(gt.back().header.stamp_ns)) + " s)");
+                    std::to_string(ns_to_seconds(gt.front().header.stamp_ns)) + " to " + std::to_string(ns_to_seconds(gt.back().header.stamp_ns)) + " s)");
       } else {
         const auto lo = hi - 1;
         const double s = static_cast<double>(ns - lo->header.stamp_ns) / static_cast<double>(hi->header.stamp_ns - lo->header.stamp_ns);
@@ -252,7 +252,7 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
   for (const ros::NavSatFix& f : fixes) {
     if (!(std::abs(f.latitude) < 90) || !(std::abs(f.longitude) <= 180) || !std::isfinite(f.altitude)) continue;
     GpsFix g;
-    g.t = seconds(f.header.stamp_ns);
+    g.t = ns_to_seconds(f.header.stamp_ns);
     g.position = {f.latitude, f.longitude, f.altitude};
     const double var = 0.5 * (f.covariance[0] + f.covariance[4]);
     g.std_m = f.covariance_type > 0 && var > 0 && std::isfinite(var) ? std::sqrt(var) : f.status >= 2 ? 0.05 : f.status == 1 ? 1.0 : 3.0;

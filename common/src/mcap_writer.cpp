@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 
+#include "mcap_format.hpp"
 #include "pl/common/error.hpp"
 
 #ifndef PL_VERSION
@@ -17,20 +18,7 @@
 namespace pl {
 namespace {
 
-constexpr std::string_view kMagic("\x89MCAP0\r\n", 8);
-enum Op : std::uint8_t {
-  kHeader = 0x01,
-  kFooter = 0x02,
-  kSchema = 0x03,
-  kChannel = 0x04,
-  kMessage = 0x05,
-  kChunk = 0x06,
-  kMessageIndex = 0x07,
-  kChunkIndex = 0x08,
-  kStatistics = 0x0b,
-  kSummaryOffset = 0x0e,
-  kDataEnd = 0x0f,
-};
+using namespace mcap_format;  // the magic and the opcodes
 
 // Little-endian fields (the host is little-endian: x86-64, arm64; the reader assumes it too).
 template <typename T>

@@ -35,11 +35,7 @@ testing::AssertionResult contains(const std::string& message, const std::string&
   return testing::AssertionFailure() << "the message \"" << message << "\"\ndoes not contain \"" << part << "\"";
 }
 
-std::string from_hex(const std::string& hex) {
-  std::string out(hex.size() / 2, '\0');
-  for (std::size_t i = 0; i < out.size(); ++i) out[i] = static_cast<char>(std::stoi(hex.substr(2 * i, 2), nullptr, 16));
-  return out;
-}
+using pl::test::from_hex;
 
 std::string read_bytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

@@ -56,11 +56,7 @@ std::string pcd_header(const std::string& fields, const std::string& sizes, cons
   return "FIELDS " + fields + "\nSIZE " + sizes + "\nTYPE " + types + "\n" + (counts.empty() ? "" : "COUNT " + counts + "\n") + rest;
 }
 
-std::string from_hex(const std::string& hex) {
-  std::string out;
-  for (std::size_t i = 0; i + 1 < hex.size(); i += 2) out += static_cast<char>(std::stoi(hex.substr(i, 2), nullptr, 16));
-  return out;
-}
+using pl::test::from_hex;
 
 // A binary_compressed body as PCL writes one, from the uncompressed bytes (the values stored field
 // after field): the compressed size, the uncompressed size, the LZF data.

@@ -11,6 +11,7 @@
 #include "error_of.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/ros_msgs.hpp"
+#include "test_util.hpp"
 
 #ifndef PL_TEST_SCRIPTS_DIR
 #define PL_TEST_SCRIPTS_DIR "tests/common"
@@ -21,11 +22,7 @@ using pl::bag::Encoding;
 
 namespace {
 
-std::string from_hex(const std::string& hex) {
-  std::string out;
-  for (std::size_t i = 0; i + 1 < hex.size(); i += 2) out.push_back(static_cast<char>(std::stoi(hex.substr(i, 2), nullptr, 16)));
-  return out;
-}
+using pl::test::from_hex;
 
 // NAME -> serialized bytes, from make_ros1_msgs.py run by Debian's Python with the ROS message packages.
 const std::map<std::string, std::string>& ros1_messages() {

@@ -98,14 +98,16 @@ struct Dataset {
   DatasetMeta meta;                   // from meta.json, or the layout's defaults
   bool has_meta_file = false;
   std::vector<std::string> sidecars;  // sidecar files found
-  std::string point_times_dir;        // point_times/ when the drive has per-point times, else empty
+  std::string point_times_dir;        // point_times/ when the drive's folder has per-point times, else empty
+  bool point_times_in_clouds = false;  // a recording whose clouds carry a per-point time field
   WorldProjection projection;
   std::shared_ptr<RecordingScans> recording;  // set when the scans come from a bag or MCAP file
   RecordingInfo recording_info;
 
   std::size_t size() const { return frame_ids.size(); }  // scans (a folder: one per file; a recording: one per cloud)
   bool has_ground_truth() const { return !ground_truth.poses.empty(); }
-  bool has_point_times() const { return !point_times_dir.empty(); }  // the sensor says it sweeps
+  // The sensor says it sweeps: the points carry their own times (point_times/, a cloud's time field).
+  bool has_point_times() const { return !point_times_dir.empty() || point_times_in_clouds; }
   const char* layout_name() const;
   Scan load_scan(std::size_t i) const;
   // Scan i with its rings (when `with_rings`: from the cloud's ring field, else from the meta's point
