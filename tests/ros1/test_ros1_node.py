@@ -7,7 +7,9 @@
 #  2. The map service is away when a second node starts (it retries and says so), comes, goes away
 #     in the middle of the drive (the node says offline and keeps localizing) and comes back (online,
 #     fetching again); the drive played again (its clock jumps back) restarts the node's localizer.
-#  3. ros1/config/localizer.yaml holds every setting of `pl-localize --list-settings`, at its default.
+#  3. With no start pose the node waits, saying so, until /initialpose (rviz's "2D Pose Estimate")
+#     starts it.
+#  4. ros1/config/localizer.yaml holds every setting of `pl-localize --list-settings`, at its default.
 # Usage: test_ros1_node.py BUILD_DIR WORK_DIR
 import json
 import math
@@ -159,7 +161,7 @@ def listen(node):
             rospy.Subscriber('/tf', TFMessage, on_tf)]
 
 
-def launch(node, log, params, settings):
+def launch(node, log, params, settings, init='pose'):
     """The launch file with the node's own parameters set first and the settings in a copy of
     ros1/config/localizer.yaml (the launch file loads it, over anything set before)."""
     import yaml
@@ -174,7 +176,7 @@ def launch(node, log, params, settings):
         assert last in d, name
         d[last] = v
     yaml.safe_dump(config, open(W(node + '.yaml'), 'w'))
-    return start(['roslaunch', 'pl_localizer', 'localizer.launch', 'server:=' + server_url, 'map:=town', 'init:=pose',
+    return start(['roslaunch', 'pl_localizer', 'localizer.launch', 'server:=' + server_url, 'map:=town', 'init:=' + init,
                   'respawn:=false', 'node_name:=' + node, 'points:=/velodyne_points', 'odom:=/odom', 'fix:=/gps/fix',
                   'config:=' + W(node + '.yaml')], W(log), env)
 
@@ -273,8 +275,54 @@ try:
     check(worst < 0.2, 'and localized again from the start pose (max %.3f m from pl-localize\'s)' % worst)
     check(node_alive('pl_local2'), 'the node is still running')
     stop(node2)
+    for sub in subs:
+        sub.unregister()
 
-    # 3. The settings file: every setting, at its default.
+    # 3. No start pose: the node waits (scans dropped, saying why) until rviz's "2D Pose Estimate"
+    #    arrives on /initialpose, 1 m and 5 degrees off; the next scan searches round it.
+    with lock:
+        for k in got:
+            got[k].clear()
+    subs = listen('pl_local3')
+    node3 = launch('pl_local3', 'node3.log', {'queue_scans': True}, {}, init='wait')
+    player = threading.Thread(target=play, args=(0.25,))
+    player.start()
+
+    def localization():
+        with lock:
+            for _, d in reversed(got['diag']):
+                if 'pl_localizer: localization' in d:
+                    return d['pl_localizer: localization']
+        return None
+    ok = wait_for(lambda: (localization() or (0, '', {}))[1] == 'waiting for /initialpose' and
+                  int(localization()[2].get('dropped', '0')) > 0, 60, 'the node to wait for /initialpose')
+    check(ok and not got['pose'], 'without a start the node drops the scans and says it waits for /initialpose (%s)' % (localization(),))
+    b0 = start_pose['base']
+    yaw = math.radians(b0[5] + 5.0)
+    guess = PoseWithCovarianceStamped()
+    guess.header.frame_id = 'map'
+    guess.pose.pose.position.x, guess.pose.pose.position.y = b0[0] + 0.8, b0[1] - 0.6
+    guess.pose.pose.orientation.z, guess.pose.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+    pub = rospy.Publisher('/initialpose', PoseWithCovarianceStamped, queue_size=1, latch=True)
+    wait_for(lambda: pub.get_num_connections() > 0, 30, 'the node to subscribe to /initialpose')
+    pub.publish(guess)
+    player.join()
+    wait_for(lambda: len(got['pose']) >= 5, 120, 'poses after /initialpose')
+    time.sleep(2.0)
+    with lock:
+        after = list(got['pose'])
+    worst = 0.0
+    for ns, x, y, z, *_ in after[2:]:
+        k = int(round((ns / 1e9 - start_pose['t0']) / 0.1))
+        r = ref[k]
+        lx = x + r[0] * E[0] + r[1] * E[1] + r[2] * E[2]
+        ly = y + r[4] * E[0] + r[5] * E[1] + r[6] * E[2]
+        worst = max(worst, math.hypot(lx - r[3], ly - r[7]))
+    check(len(after) >= 5 and worst < 0.2, '/initialpose started the node: %d poses, from the third on within %.3f m of '
+          'pl-localize\'s' % (len(after), worst))
+    stop(node3)
+
+    # 4. The settings file: every setting, at its default.
     listed = {}
     for line in run([os.path.join(BIN, 'pl-localize'), '--list-settings']).splitlines():
         name, _, value = line.split(' ', 1)[0].partition('=')
