@@ -594,7 +594,9 @@ class Ros2Reader : public Reader {
     }
 
     const std::string table = "table messages";
-    Stmt st = db.prepare("SELECT rowid, topic_id, timestamp, typeof(data), length(data) FROM messages", table);
+    // In rowid order, as a sound table gives its rows: rows that come out of order or twice are a
+    // damaged b-tree (a page referenced twice), refused rather than listed twice.
+    Stmt st = db.prepare("SELECT rowid, topic_id, timestamp, typeof(data), length(data) FROM messages ORDER BY rowid", table);
     std::int64_t last = 0;
     bool any = false;
     for (;;) {
@@ -602,6 +604,11 @@ class Ros2Reader : public Reader {
       if (rc == SQLITE_DONE) break;
       if (rc != SQLITE_ROW) db.fail_sqlite(any ? table + ", after row " + std::to_string(last) : table, rc);
       const std::int64_t row = sqlite3_column_int64(st.get(), 0);
+      if (any && row <= last)
+        db.fail(table + ", row " + std::to_string(row),
+                "comes after row " + std::to_string(last) +
+                    " (rows out of order or repeated: the file is damaged; copy it again from the recorder, or salvage what "
+                    "is left with sqlite3's .recover)");
       last = row;
       any = true;
       const std::int64_t topic_id = sqlite3_column_int64(st.get(), 1);

@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string_view>
@@ -73,6 +75,9 @@ class Env {
       store.add_token(kUploadToken, store::Role::Upload, "fuzz");
       store.add_token(kAdminToken, store::Role::Admin, "fuzz");
     }
+    std::ifstream in(pristine_, std::ios::binary);
+    pristine_bytes_.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    if (pristine_bytes_.empty()) std::abort();
   }
   ~Env() {
     std::error_code ec;
@@ -81,7 +86,17 @@ class Env {
 
   server::ApiResponse handle(const server::ApiRequest& req) {
     const std::string path = dir_ + "/run-" + std::to_string(++run_) + ".sqlite";
-    fs::copy_file(pristine_, path, fs::copy_options::overwrite_existing);
+    // Written from memory, not with fs::copy_file: its sendfile() is not retried when a signal
+    // interrupts it, and libFuzzer's timeout timer sends SIGALRM every few seconds (a run of an hour
+    // threw "cannot copy file: Interrupted system call"); a stream's writes are retried.
+    {
+      std::ofstream out(path, std::ios::binary | std::ios::trunc);
+      out.write(pristine_bytes_.data(), static_cast<std::streamsize>(pristine_bytes_.size()));
+      if (!out) {
+        std::fprintf(stderr, "cannot write %s\n", path.c_str());
+        std::abort();
+      }
+    }
     server::ApiResponse r;
     {
       server::Metrics metrics;
@@ -100,7 +115,7 @@ class Env {
     const std::string p = dir_ + "/run-" + std::to_string(n) + ".sqlite";
     for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(p + suffix, ec);
   }
-  std::string dir_, pristine_;
+  std::string dir_, pristine_, pristine_bytes_;
   long run_ = 0;
 };
 
