@@ -1,5 +1,7 @@
 #include "pl/client/run_log.hpp"
 
+#include <openssl/evp.h>
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -145,27 +147,12 @@ Json xyzw(const Eigen::Matrix3d& r) {
 
 Json pose_json(const Eigen::Isometry3d& p) { return Json{{"position", xyz(p.translation())}, {"orientation", xyzw(p.linear())}}; }
 
+// Base64 as Foxglove's JSON encoding carries bytes (OpenSSL's encoder, no line breaks).
 std::string base64(const std::string& bytes) {
-  static const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((bytes.size() + 2) / 3 * 4);
-  const auto* b = reinterpret_cast<const unsigned char*>(bytes.data());
-  std::size_t i = 0;
-  for (; i + 3 <= bytes.size(); i += 3) {
-    const std::uint32_t v = (std::uint32_t{b[i]} << 16) | (std::uint32_t{b[i + 1]} << 8) | b[i + 2];
-    out += abc[v >> 18];
-    out += abc[(v >> 12) & 63];
-    out += abc[(v >> 6) & 63];
-    out += abc[v & 63];
-  }
-  if (i < bytes.size()) {
-    const bool two = i + 1 < bytes.size();
-    const std::uint32_t v = (std::uint32_t{b[i]} << 16) | (two ? std::uint32_t{b[i + 1]} << 8 : 0u);
-    out += abc[v >> 18];
-    out += abc[(v >> 12) & 63];
-    out += two ? abc[(v >> 6) & 63] : '=';
-    out += '=';
-  }
+  std::string out(4 * ((bytes.size() + 2) / 3) + 1, '\0');
+  const int n = EVP_EncodeBlock(reinterpret_cast<unsigned char*>(out.data()), reinterpret_cast<const unsigned char*>(bytes.data()),
+                                static_cast<int>(bytes.size()));
+  out.resize(static_cast<std::size_t>(n));
   return out;
 }
 

@@ -100,8 +100,6 @@ class StaticTree {
   }
 };
 
-std::string strip_slash(const std::string& f) { return !f.empty() && f.front() == '/' ? f.substr(1) : f; }
-
 }  // namespace
 
 Dataset open_recording(const std::string& path, const DatasetOptions& options) {
@@ -172,8 +170,8 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
     } else if (t.type == "tf2_msgs/TFMessage" && (t.name == "/tf_static" || t.name == "tf_static")) {
       for (const ros::Transform& x : ros::decode_tf_message(r.read(m), t.encoding, name)) {
         ros::Transform y = x;
-        y.header.frame_id = strip_slash(y.header.frame_id);
-        y.child_frame_id = strip_slash(y.child_frame_id);
+        y.header.frame_id = ros::frame_name(y.header.frame_id);
+        y.child_frame_id = ros::frame_name(y.child_frame_id);
         tree.add(y);
       }
     }
@@ -188,7 +186,7 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
 
   // The first scan tells the sensor: its rings and whether its points carry times.
   const Frame first = recording_frame(*rec, 0, true);
-  info.lidar_frame = strip_slash(topic_frames[pi]);
+  info.lidar_frame = ros::frame_name(topic_frames[pi]);
   int beams = 0;
   for (std::uint16_t ring : first.rings) beams = std::max(beams, ring + 1);
   ds.meta.sensor.model = "from " + points->name;
@@ -203,7 +201,7 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
 
   // Odometry: the LiDAR's poses in the odometry frame, through the base frame's extrinsics.
   if (!odo.empty()) {
-    info.base_frame = strip_slash(odo.front().child_frame_id);
+    info.base_frame = ros::frame_name(odo.front().child_frame_id);
     std::optional<Pose> base_lidar = tree.between(info.base_frame, info.lidar_frame);
     if (!base_lidar) {
       info.notes.push_back("no /tf_static path from " + info.base_frame + " to " + info.lidar_frame + ": odometry taken as the LiDAR's own");
@@ -217,7 +215,7 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
   if (truth) {
     if (gt.empty()) throw Error(path + ": the truth topic " + truth->name + " has no messages");
     std::stable_sort(gt.begin(), gt.end(), [](const ros::Odometry& a, const ros::Odometry& b) { return a.header.stamp_ns < b.header.stamp_ns; });
-    const std::string child = strip_slash(gt.front().child_frame_id);
+    const std::string child = ros::frame_name(gt.front().child_frame_id);
     std::optional<Pose> child_lidar = tree.between(child, info.lidar_frame);
     if (!child_lidar) {
       info.notes.push_back("no /tf_static path from " + child + " to " + info.lidar_frame + ": the truth taken as the LiDAR's own poses");
@@ -260,7 +258,7 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
     ds.gps.push_back(g);
   }
   if (!ds.gps.empty()) {
-    info.gps_frame = strip_slash(fixes.front().header.frame_id);
+    info.gps_frame = ros::frame_name(fixes.front().header.frame_id);
     if (std::optional<Pose> lidar_gps = tree.between(info.lidar_frame, info.gps_frame))
       ds.meta.vehicle.gps_lever_arm = lidar_gps->translation();
     else

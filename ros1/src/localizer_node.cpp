@@ -74,8 +74,6 @@ std::vector<double> param_list(const ::ros::NodeHandle& nh, const std::string& n
   return r;
 }
 
-std::string strip_slash(const std::string& f) { return !f.empty() && f.front() == '/' ? f.substr(1) : f; }
-
 // The covariance proxy (x, y, z, roll, pitch, yaw in the base frame) as ROS wants it: about the
 // fixed axes of the parent frame.
 boost::array<double, 36> covariance_in_map(const Eigen::Matrix<double, 6, 6>& base_cov, const Eigen::Isometry3d& base_in_map) {
@@ -263,7 +261,7 @@ struct LocalizerNode::Impl {
       ++scans;
       if (!first_cloud) {
         SensorInfo info;
-        info.frame = strip_slash(cloud.header.frame_id);
+        info.frame = msg::frame_name(cloud.header.frame_id);
         for (std::uint16_t r : cloud.rings) info.beams = std::max(info.beams, r + 1);
         info.times = !cloud.times.empty();
         first_cloud = info;
@@ -338,8 +336,8 @@ struct LocalizerNode::Impl {
       {
         std::lock_guard<std::mutex> lk(m);
         if (t <= last_odom_t) return;  // a repeat or out of order: the odometry's times must increase
-        if (base_frame.empty()) base_frame = strip_slash(o.child_frame_id);
-        if (odom_frame.empty()) odom_frame = strip_slash(o.header.frame_id);
+        if (base_frame.empty()) base_frame = msg::frame_name(o.child_frame_id);
+        if (odom_frame.empty()) odom_frame = msg::frame_name(o.header.frame_id);
         last_odom_t = t;
         last_odom = o.pose;
         last_odom_wall = ::ros::WallTime::now();
@@ -377,7 +375,7 @@ struct LocalizerNode::Impl {
   }
 
   void on_initial_pose(const geometry_msgs::PoseWithCovarianceStampedConstPtr& msg) {
-    if (!msg->header.frame_id.empty() && strip_slash(msg->header.frame_id) != map_frame) {
+    if (!msg->header.frame_id.empty() && msg::frame_name(msg->header.frame_id) != map_frame) {
       ROS_WARN("pl_localizer: /initialpose in frame %s ignored: give it in %s", msg->header.frame_id.c_str(), map_frame.c_str());
       return;
     }

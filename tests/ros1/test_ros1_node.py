@@ -67,6 +67,13 @@ def free_port():
     return port
 
 
+def lidar_of(x, y, z, r):
+    """The LiDAR's position from the node's base position, turned as pl-localize's pose r (a KITTI
+    row: lidar = base + R * base_from_lidar)."""
+    return (x + r[0] * E[0] + r[1] * E[1] + r[2] * E[2], y + r[4] * E[0] + r[5] * E[1] + r[6] * E[2],
+            z + r[8] * E[0] + r[9] * E[1] + r[10] * E[2])
+
+
 def wait_for(pred, timeout, what):
     t = time.time()
     while time.time() - t < timeout:
@@ -210,10 +217,7 @@ try:
     check(len(poses) == scans, 'the node published one pose per scan (%d of %d)' % (len(poses), scans))
     worst = 0.0
     for (ns, x, y, z, *_), r in zip(poses, ref):
-        # pl-localize's poses are the LiDAR's, the node's the base's: lidar = base + R * base_from_lidar.
-        lx = x + r[0] * E[0] + r[1] * E[1] + r[2] * E[2]
-        ly = y + r[4] * E[0] + r[5] * E[1] + r[6] * E[2]
-        lz = z + r[8] * E[0] + r[9] * E[1] + r[10] * E[2]
+        lx, ly, lz = lidar_of(x, y, z, r)
         worst = max(worst, math.sqrt((lx - r[3]) ** 2 + (ly - r[7]) ** 2 + (lz - r[11]) ** 2))
     check(worst < 0.01, 'the node\'s poses match pl-localize\'s within 1 cm (max %.6f m)' % worst)
     stamps = [p[0] for p in poses]
@@ -269,8 +273,7 @@ try:
     check(len(second) == scans, 'after the clock jumped back the node started again: one pose per scan (%d)' % len(second))
     worst = 0.0
     for (ns, x, y, z, *_), r in zip(second, ref):
-        lx = x + r[0] * E[0] + r[1] * E[1] + r[2] * E[2]
-        ly = y + r[4] * E[0] + r[5] * E[1] + r[6] * E[2]
+        lx, ly, _ = lidar_of(x, y, z, r)
         worst = max(worst, math.hypot(lx - r[3], ly - r[7]))
     check(worst < 0.2, 'and localized again from the start pose (max %.3f m from pl-localize\'s)' % worst)
     check(node_alive('pl_local2'), 'the node is still running')
@@ -315,8 +318,7 @@ try:
     for ns, x, y, z, *_ in after[2:]:
         k = int(round((ns / 1e9 - start_pose['t0']) / 0.1))
         r = ref[k]
-        lx = x + r[0] * E[0] + r[1] * E[1] + r[2] * E[2]
-        ly = y + r[4] * E[0] + r[5] * E[1] + r[6] * E[2]
+        lx, ly, _ = lidar_of(x, y, z, r)
         worst = max(worst, math.hypot(lx - r[3], ly - r[7]))
     check(len(after) >= 5 and worst < 0.2, '/initialpose started the node: %d poses, from the third on within %.3f m of '
           'pl-localize\'s' % (len(after), worst))

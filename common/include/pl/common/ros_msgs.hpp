@@ -19,6 +19,11 @@
 
 namespace pl::ros {
 
+// A tf frame name without the leading '/' that ROS 1 tools sometimes add ("/velodyne" is "velodyne").
+inline std::string frame_name(const std::string& frame_id) {
+  return !frame_id.empty() && frame_id.front() == '/' ? frame_id.substr(1) : frame_id;
+}
+
 struct Header {
   std::int64_t stamp_ns = 0;  // nanoseconds since 1970 (the sender's clock)
   std::string frame_id;
