@@ -10,6 +10,7 @@
 #include <shared_mutex>
 #include <sstream>
 #include <unordered_map>
+#include <unordered_set>
 
 #include <zlib.h>
 
@@ -20,6 +21,7 @@
 #include "pl/schema/api_rules.hpp"
 #include "pl/schema/store.hpp"
 #include "api_parts.hpp"
+#include "version_index.hpp"
 
 using nlohmann::json;
 
@@ -98,6 +100,7 @@ struct Api::Impl {
   // Tile lookups of published and retired versions (immutable): "map/v/tx/ty" -> hash.
   std::shared_mutex tiles_mutex;
   std::unordered_map<std::string, std::string> tile_hashes;
+  VersionIndexCache version_indexes{8};  // ROI lookups of published and retired versions
 
   Impl(ApiConfig c, Metrics& m) : cfg(std::move(c)), metrics(m), blobs(cfg.blob_cache_bytes) {}
 
@@ -212,8 +215,11 @@ struct Api::Impl {
     double x = query_number(t, "x", true, 0), y = query_number(t, "y", true, 0), r = query_number(t, "radius", true, 0);
     if (!(r >= 0 && r <= api::kMaxRoiRadiusM)) fail(400, "radius must be between 0 and 5000 m");
     std::int64_t version = 0;
+    bool staged_version = false;
     if (t.query.count("version")) {
-      version = need_version(m, parse_version(t.query.at("version")), staged).number;
+      const store::VersionInfo info = need_version(m, parse_version(t.query.at("version")), staged);
+      version = info.number;
+      staged_version = info.state == store::VersionState::Staged;
     } else {
       if (!m.current) fail(404, "map " + name + " has no published version");
       version = *m.current;
@@ -225,24 +231,35 @@ struct Api::Impl {
         if (!api::is_hash(hs)) fail(400, "have= takes comma-separated tile hashes (64 hex digits)");
         have.insert(hs);
       }
-    TileGrid grid(m.tile_size);
-    json tiles = json::array();
-    std::set<std::string> in_roi;
-    // Candidates from the R*Tree over tile boxes (grown by a tile, since a tile's points need not
-    // reach its square's edge), then the exact test against each tile's square.
-    for (const auto& rec : db().tiles_in_box(name, version, x - r - m.tile_size, y - r - m.tile_size, x + r + m.tile_size, y + r + m.tile_size)) {
-      TileBounds b = grid.bounds_of(rec.key);
-      double dx = std::max({b.min_x - x, 0.0, x - b.max_x}), dy = std::max({b.min_y - y, 0.0, y - b.max_y});
-      if (dx * dx + dy * dy > r * r) continue;
-      in_roi.insert(rec.hash);
-      if (have.count(rec.hash)) continue;
-      tiles.push_back({{"tx", rec.key.tx}, {"ty", rec.key.ty}, {"hash", rec.hash}, {"url", tile_url(name, version, rec.key)},
-                       {"points", rec.points}, {"bytes", rec.bytes}});
+    // A published or retired version never changes: its tiles are indexed in memory once. A staged
+    // one is read from the store each time, candidates from the R*Tree over tile boxes (grown by a
+    // tile, since a tile's points need not reach its square's edge); then, either way, the exact
+    // test against each tile's square.
+    std::shared_ptr<const VersionIndex> index;
+    if (!staged_version) {
+      index = version_indexes.find(name, version);
+      if (!index) {
+        index = std::make_shared<const VersionIndex>(m.tile_size, db().list_tiles(name, version));
+        version_indexes.put(name, version, index);
+      }
+    } else {
+      index = std::make_shared<const VersionIndex>(
+          m.tile_size, db().tiles_in_box(name, version, x - r - m.tile_size, y - r - m.tile_size, x + r + m.tile_size, y + r + m.tile_size));
     }
-    json drop = json::array();
+    std::vector<const VersionIndex::Tile*> send;
+    std::unordered_set<std::string_view> in_roi;
+    for (const VersionIndex::Tile* tile : index->in_disc(x, y, r)) {
+      in_roi.insert(tile->hash);
+      if (!have.count(tile->hash)) send.push_back(tile);
+    }
+    std::vector<std::string_view> drop;
     for (const auto& h : have)
       if (!in_roi.count(h)) drop.push_back(h);
-    return json_response(200, {{"version", version}, {"tile_size", m.tile_size}, {"tiles", tiles}, {"drop", drop}}, "/v1/maps/{map}/roi");
+    ApiResponse res;
+    res.status = 200;
+    res.body = roi_body(name, version, m.tile_size, send, drop);
+    res.route = "/v1/maps/{map}/roi";
+    return res;
   }
 
   // Bytes named by their content hash: the ETag and caching headers, and 304 when If-None-Match
