@@ -15,7 +15,7 @@
 // seconds a scan and would disturb the timings of the others.)
 // Errors are the translation error of each scan's estimate against its ground-truth pose (no
 // alignment). The benchmark reports; it never fails on a figure.
-//   bench_localize DATASET_DIR MAPS.sqlite [--map NAME] [--quick N] [--every K [--phase P]] [--ndt-eps E] [--from-truth]
+//   bench_localize DATASET_DIR MAPS.sqlite [--map NAME] [--quick N] [--every K [--phase P]] [--ndt-eps E] [--from-truth] [--ours-only] [--per-scan CSV] [--set NAME=VALUE]...
 // (--every K --phase P: every K-th odd scan from the P-th, one of the K drives interleaved in the recording)
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -28,6 +28,8 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <fstream>
+#include <stdexcept>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -37,6 +39,7 @@
 #include <vector>
 
 #include "bench_util.hpp"
+#include "pl/client/config_fields.hpp"
 #include "pl/client/localizer.hpp"
 #include "pl/client/store_tiles.hpp"
 #include "pl/common/dataset.hpp"
@@ -200,10 +203,11 @@ double per_scan_median(const Run& r) {
 }  // namespace
 
 int main(int argc, char** argv) try {
-  std::string dir, db, map_name = "k05";
+  std::string dir, db, map_name = "k05", per_scan;
   std::size_t quick = 0, every = 1, phase = 0;
   double ndt_eps = 1e-4;
-  bool from_truth = false;
+  bool from_truth = false, ours_only = false;
+  std::vector<std::string> settings;  // localizer settings by name, as pl-localize --set takes them
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--from-truth")
@@ -216,6 +220,12 @@ int main(int argc, char** argv) try {
       every = std::max<std::size_t>(1, static_cast<std::size_t>(std::stoul(argv[++i])));
     else if (a == "--phase" && i + 1 < argc)
       phase = static_cast<std::size_t>(std::stoul(argv[++i]));
+    else if (a == "--ours-only")
+      ours_only = true;
+    else if (a == "--set" && i + 1 < argc)
+      settings.emplace_back(argv[++i]);
+    else if (a == "--per-scan" && i + 1 < argc)
+      per_scan = argv[++i];
     else if (a == "--ndt-eps" && i + 1 < argc)
       ndt_eps = std::stod(argv[++i]);
     else if (dir.empty())
@@ -223,12 +233,12 @@ int main(int argc, char** argv) try {
     else if (db.empty())
       db = a;
     else {
-      std::fprintf(stderr, "usage: bench_localize DATASET_DIR MAPS.sqlite [--map NAME] [--quick N] [--every K [--phase P]] [--ndt-eps E] [--from-truth]\n");
+      std::fprintf(stderr, "usage: bench_localize DATASET_DIR MAPS.sqlite [--map NAME] [--quick N] [--every K [--phase P]] [--ndt-eps E] [--from-truth] [--ours-only] [--per-scan CSV] [--set NAME=VALUE]...\n");
       return 2;
     }
   }
   if (dir.empty() || db.empty()) {
-    std::fprintf(stderr, "usage: bench_localize DATASET_DIR MAPS.sqlite [--map NAME] [--quick N] [--every K [--phase P]] [--ndt-eps E] [--from-truth]\n");
+    std::fprintf(stderr, "usage: bench_localize DATASET_DIR MAPS.sqlite [--map NAME] [--quick N] [--every K [--phase P]] [--ndt-eps E] [--from-truth] [--ours-only] [--per-scan CSV] [--set NAME=VALUE]...\n");
     return 2;
   }
 
@@ -265,6 +275,16 @@ int main(int argc, char** argv) try {
   pl::client::LocalizerConfig cfg;
   cfg.scan.beams = 16;
   cfg.scan.sensor_beams = sensor_beams;
+  if (!settings.empty()) {  // the names pl-localize --list-settings prints ("localizer/icp/kernel_m=0.3")
+    pl::client::VehicleLocalizerConfig vc;
+    vc.localizer = cfg;
+    for (const std::string& kv : settings) {
+      const std::size_t eq = kv.find('=');
+      if (eq == std::string::npos) throw std::runtime_error("--set takes NAME=VALUE, not \"" + kv + "\"");
+      pl::client::set_config_field(vc, kv.substr(0, eq), kv.substr(eq + 1));
+    }
+    cfg = vc.localizer;
+  }
   pl::client::Localizer ours_loc(cfg, store.tile_size(), provider);
   pl::client::Localizer floor_loc(cfg, store.tile_size(), provider);
   Run ours, floor, icp_pp, icp_pl, ndt, icp_gt, gicp_gt, floor_off, icp_off, gicp_off;
@@ -385,7 +405,20 @@ int main(int argc, char** argv) try {
       floor.iterations.push_back(r.icp.iterations);
     }
 
+    // Ours 0.2 m from the ground truth (horizontally, the direction turning by the golden angle).
+    const double a = 2.399963229728653 * static_cast<double>(k);
+    Isometry shifted = gt[k];
+    shifted.translation() += 0.2 * Eigen::Vector3d(std::cos(a), std::sin(a), 0.0);
+    if (from_truth) {
+      off_loc.start(shifted, t, nullptr);
+      const pl::client::ScanReport r = off_loc.process(t, raw, rings);
+      floor_off.poses.push_back(r.icp.pose);
+      floor_off.register_ms.push_back(r.register_ms);
+      floor_off.ok.push_back(r.icp.accepted);
+    }
+
     // PCL.
+    if (ours_only) continue;
     const pl::Scan prepared = pl::prepare_scan(raw, rings, prep);
     const auto src_xyz = to_pcl<pcl::PointXYZ>(prepared);
     const auto src_n = to_pcl<pcl::PointNormal>(prepared);
@@ -417,14 +450,6 @@ int main(int argc, char** argv) try {
       icp_step<pcl::PointXYZ>(icp, icp_gt, store, src_xyz, gt[k], anchor, target_radius);
       icp_step<pcl::PointXYZ>(gicp, gicp_gt, store, src_xyz, gt[k], anchor, target_radius);
       gicp_gt.ok.back() = gicp.hasConverged();  // GICP does not report through the convergence criteria
-      const double a = 2.399963229728653 * static_cast<double>(k);  // the golden angle
-      Isometry shifted = gt[k];
-      shifted.translation() += 0.2 * Eigen::Vector3d(std::cos(a), std::sin(a), 0.0);
-      off_loc.start(shifted, t, nullptr);
-      const pl::client::ScanReport r = off_loc.process(t, raw, rings);
-      floor_off.poses.push_back(r.icp.pose);
-      floor_off.register_ms.push_back(r.register_ms);
-      floor_off.ok.push_back(r.icp.accepted);
       icp_step<pcl::PointXYZ>(icp, icp_off, store, src_xyz, shifted, anchor, target_radius);
       icp_step<pcl::PointXYZ>(gicp, gicp_off, store, src_xyz, shifted, anchor, target_radius);
       gicp_off.ok.back() = gicp.hasConverged();
@@ -436,7 +461,7 @@ int main(int argc, char** argv) try {
   }
 
   const std::size_t n = scans.size();
-  if (!from_truth)
+  if (!from_truth && !ours_only)
     std::printf("points a scan (medians): ours registers %.0f (%.1f m voxels) against its ROI map of %.0f; PCL registers %.0f "
               "(0.2 m voxels) against %.0f\n\n",
               pl::median(ours.points), cfg.scan.voxel_m, pl::median(ours.target_points),
@@ -445,8 +470,9 @@ int main(int argc, char** argv) try {
   std::printf("%-40s %7s %7s %7s %7s  %8s %7s  %9s %8s  %9s %9s\n", "APE vs OXTS (m), registration (ms)", "mean", "median",
               "RMSE", "max", "coverage", "<0.5 m", "reg p50", "reg p99", "target", "index");
   const std::vector<const Run*> runs =
-      from_truth ? std::vector<const Run*>{&floor, &floor_off, &icp_gt, &icp_off, &gicp_gt, &gicp_off}
-                 : std::vector<const Run*>{&ours, &floor, &icp_pp, &icp_pl, &ndt};
+      ours_only ? (from_truth ? std::vector<const Run*>{&floor, &floor_off} : std::vector<const Run*>{&ours, &floor})
+      : from_truth ? std::vector<const Run*>{&floor, &floor_off, &icp_gt, &icp_off, &gicp_gt, &gicp_off}
+                   : std::vector<const Run*>{&ours, &floor, &icp_pp, &icp_pl, &ndt};
   const auto ms_or_dash = [](const std::vector<double>& v) {
     char b[32] = "-";
     if (!v.empty()) std::snprintf(b, sizeof b, "%.2f", pl::median(v));
@@ -472,6 +498,19 @@ int main(int argc, char** argv) try {
 
   std::printf("settings:\n");
   for (const Run* r : runs) std::printf("  %-38s %s\n", r->name.c_str(), r->settings.c_str());
+  if (!per_scan.empty()) {  // each method's error at each scan, to see where they part
+    std::ofstream csv(per_scan);
+    csv << "frame";
+    for (const Run* r : runs) csv << ",\"" << r->name << "\"";
+    csv << "\n";
+    for (std::size_t k = 0; k < n; ++k) {
+      csv << (ds.frame_ids.empty() ? static_cast<long>(scans[k]) : ds.frame_ids[scans[k]]);
+      for (const Run* r : runs) csv << "," << (r->poses[k].translation() - gt[k].translation()).norm();
+      csv << "\n";
+    }
+    if (!csv) throw std::runtime_error("cannot write " + per_scan);
+    std::printf("per-scan errors -> %s\n", per_scan.c_str());
+  }
   std::printf("\nwhere they go wrong (frames are the drive's):\n");
   for (const Run* r : runs) {
     const ApeStats s = ape(r->poses, gt);
@@ -483,6 +522,10 @@ int main(int argc, char** argv) try {
   }
 
   const ApeStats f = ape(floor.poses, gt);
+  if (from_truth && ours_only) {
+    std::printf("\nfrom the truth and 0.2 m from it: ours %.3f / %.3f m mean\n", f.mean, ape(floor_off.poses, gt).mean);
+    return 0;
+  }
   if (from_truth) {
     const ApeStats fo = ape(floor_off.poses, gt), ig = ape(icp_gt.poses, gt), io = ape(icp_off.poses, gt);
     const ApeStats gg = ape(gicp_gt.poses, gt), go = ape(gicp_off.poses, gt);
@@ -495,7 +538,7 @@ int main(int argc, char** argv) try {
   const double ours_scan = per_scan_median(ours);
   std::printf("\nagainst ours (%.3f m mean APE, registration %.2f ms median a scan, %.2f ms with its map upkeep):\n",
               ours_ape.mean, ours_reg, ours_scan);
-  for (const Run* r : {&icp_pp, &icp_pl, &ndt}) {
+  for (const Run* r : ours_only ? std::vector<const Run*>{} : std::vector<const Run*>{&icp_pp, &icp_pl, &ndt}) {
     const ApeStats s = ape(r->poses, gt);
     const double reg = pl::median(r->register_ms), whole = per_scan_median(*r);
     std::printf("  %s %.3f m at %.0f ms = %.0fx slower than ours (%.0fx with target and index: %.0f ms vs %.2f ms)\n",
