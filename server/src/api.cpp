@@ -247,8 +247,12 @@ struct Api::Impl {
           m.tile_size, db().tiles_in_box(name, version, x - r - m.tile_size, y - r - m.tile_size, x + r + m.tile_size, y + r + m.tile_size));
     }
     std::vector<const VersionIndex::Tile*> send;
-    std::unordered_set<std::string_view> in_roi;
+    std::unordered_set<std::string_view> in_roi;  // for drop: only asked for with have=
     for (const VersionIndex::Tile* tile : index->in_disc(x, y, r)) {
+      if (have.empty()) {
+        send.push_back(tile);
+        continue;
+      }
       in_roi.insert(tile->hash);
       if (!have.count(tile->hash)) send.push_back(tile);
     }

@@ -51,37 +51,20 @@ std::vector<const VersionIndex::Tile*> VersionIndex::in_disc(double x, double y,
   return out;
 }
 
-namespace {
-
-// A JSON string as nlohmann::json writes it (escapes included), for the few texts that are not
-// known to need none.
-std::string json_string(const std::string& s) {
-  return nlohmann::json(s).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-}
-
-bool plain_hex(std::string_view s) {
-  return std::all_of(s.begin(), s.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
-}
-
-}  // namespace
-
 std::string roi_body(const std::string& map, std::int64_t version, double tile_size, const std::vector<const VersionIndex::Tile*>& tiles,
                      const std::vector<std::string_view>& drop) {
-  // The url's fixed part, escaped as a JSON string without its closing quote.
-  std::string url = json_string("/v1/maps/" + map + "/versions/" + std::to_string(version) + "/tiles/");
+  // The url's fixed part, escaped as nlohmann::json escapes a string, without its closing quote.
+  std::string url = nlohmann::json("/v1/maps/" + map + "/versions/" + std::to_string(version) + "/tiles/")
+                        .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   url.pop_back();
   std::string out;
   out.reserve(64 + tiles.size() * (160 + url.size()) + drop.size() * 68);
   out += "{\"drop\":[";
   for (std::size_t i = 0; i < drop.size(); ++i) {
     if (i) out += ',';
-    if (plain_hex(drop[i])) {
-      out += '"';
-      out += drop[i];
-      out += '"';
-    } else {
-      out += json_string(std::string(drop[i]));
-    }
+    out += '"';
+    out += drop[i];
+    out += '"';
   }
   out += "],\"tile_size\":";
   out += nlohmann::json(tile_size).dump();
@@ -91,14 +74,9 @@ std::string roi_body(const std::string& map, std::int64_t version, double tile_s
     if (i) out += ',';
     out += "{\"bytes\":";
     out += std::to_string(t.bytes);
-    out += ",\"hash\":";
-    if (plain_hex(t.hash)) {
-      out += '"';
-      out += t.hash;
-      out += '"';
-    } else {
-      out += json_string(t.hash);
-    }
+    out += ",\"hash\":\"";
+    out += t.hash;
+    out += '"';
     out += ",\"points\":";
     out += std::to_string(t.points);
     out += ",\"tx\":";

@@ -47,8 +47,9 @@ class VersionIndex {
 // The body of a ROI answer, byte for byte what nlohmann::json's dump() gives for
 // {"version", "tile_size", "tiles": [{"tx", "ty", "hash", "url", "points", "bytes"}...], "drop"}
 // (keys sorted, no spaces, a newline after), written directly: the answer is the server's most
-// frequent JSON and building it as a json tree cost more than the rest of the query. `map` must be
-// a valid map name and the hashes lowercase hex (nothing in them needs escaping).
+// frequent JSON and building it as a json tree cost more than the rest of the query. The hashes
+// must be api::is_hash's 64 lowercase hex digits, written as they are (the store checks every hash
+// it reads, the API every have= hash); the map name is escaped.
 std::string roi_body(const std::string& map, std::int64_t version, double tile_size, const std::vector<const VersionIndex::Tile*>& tiles,
                      const std::vector<std::string_view>& drop);
 
