@@ -119,6 +119,7 @@ std::int64_t check_file(const Db& db) {
 
 TileCache::TileCache(const std::string& path) : path_(path) {
   sqlite3* db = nullptr;
+  sqlite::configure_library();
   int rc = sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
   if (rc != SQLITE_OK) {
     std::string msg = db ? sqlite3_errmsg(db) : sqlite3_errstr(rc);

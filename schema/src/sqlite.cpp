@@ -2,6 +2,7 @@
 #include "pl/schema/detail/sqlite.hpp"
 
 #include <cmath>
+#include <mutex>
 
 #include "pl/common/error.hpp"
 #include "pl/schema/api_rules.hpp"
@@ -28,11 +29,16 @@ std::string kind_name(const Db& db) { return db.kind().name; }
 
 }  // namespace
 
-Db checked(void* handle, const std::string& path, const FileKind& kind) {
+void configure_library() {
+  static std::once_flag once;
+  std::call_once(once, [] { sqlite3_config(SQLITE_CONFIG_MEMSTATUS, 0); });
+}
+
+Db checked(void* handle, const std::string& path, const FileKind& kind, StmtCache* stmts) {
   if (!handle)
     throw Error(path.empty() ? std::string(kind.name) + ": used after it was moved from"
                              : path + ": the " + kind.name + " is closed");
-  return Db(static_cast<sqlite3*>(handle), path, kind);
+  return Db(static_cast<sqlite3*>(handle), path, kind, stmts);
 }
 
 // Both files are read from disks that may fail and may have been handed over by someone else. Each
@@ -115,15 +121,44 @@ std::string plain(const std::string& s, std::size_t max) {
 
 // ---- statements ----------------------------------------------------------------------------------
 
+StmtCache::~StmtCache() {
+  for (auto& [sql, s] : kept_) sqlite3_finalize(s);
+}
+
+sqlite3_stmt* StmtCache::take(const char* sql) {
+  auto it = kept_.find(std::string_view(sql));
+  if (it == kept_.end()) return nullptr;
+  sqlite3_stmt* s = it->second;
+  kept_.erase(it);
+  return s;
+}
+
+void StmtCache::give(sqlite3_stmt* s) {
+  const char* sql = sqlite3_sql(s);  // the text it was prepared from (the caller's may be gone)
+  // reset ends the statement's read of the file (its transaction) as finalize would; its result
+  // repeats the last step's error, which that step has reported already.
+  sqlite3_reset(s);
+  sqlite3_clear_bindings(s);
+  if (!sql || kept_.size() >= kMaxKept || !kept_.emplace(sql, s).second) sqlite3_finalize(s);
+}
+
 Stmt::Stmt(const Db& db, const char* sql) : db_(db) {
-  if (sqlite3_prepare_v2(db.get(), sql, -1, &stmt_, nullptr) != SQLITE_OK) {
+  if (db.stmts() && (stmt_ = db.stmts()->take(sql))) return;
+  // SQLITE_PREPARE_PERSISTENT when kept: SQLite allocates the statement for a long life.
+  const unsigned flags = db.stmts() ? SQLITE_PREPARE_PERSISTENT : 0;
+  if (sqlite3_prepare_v3(db.get(), sql, -1, flags, &stmt_, nullptr) != SQLITE_OK) {
     sqlite3_finalize(stmt_);
     stmt_ = nullptr;
     fail(db, std::string("preparing \"") + sql + "\"");
   }
 }
 
-Stmt::~Stmt() { sqlite3_finalize(stmt_); }
+Stmt::~Stmt() {
+  if (stmt_ && db_.stmts())
+    db_.stmts()->give(stmt_);
+  else
+    sqlite3_finalize(stmt_);
+}
 
 namespace {
 void check_bind(const Db& db, int rc) {

@@ -1,4 +1,4 @@
-// The map store over SQLite: opening and migrating, maps and versions (tiles, blobs, tokens and the
+// The map store's SQLite backend: opening and migrating, maps and versions (tiles, blobs, tokens and the
 // upload log: store_tiles.cpp; places: store_places.cpp). See store.hpp for the semantics and
 // schema/NNN_*.sql for the tables. All values reach SQL through bound parameters; the only SQL built from strings are
 // PRAGMAs and savepoints whose text comes from this file (integers and fixed identifiers).
@@ -42,8 +42,6 @@ const sqlite::FileKind kMapStore = {
     "is this the right file?",
     "upgrade the PointLocalization software",
 };
-
-Db handle(void* db, const std::string& path) { return sqlite::checked(db, path, kMapStore); }
 
 std::int64_t pragma_int(const Db& db, const char* sql) { return sqlite::query_int(db, sql); }
 
@@ -370,30 +368,22 @@ std::string content_hash(std::string_view bytes) {
 
 int Store::latest_schema_version() { return kMigrations[std::size(kMigrations) - 1].number; }
 
-Store::Store(std::string path) : path_(std::move(path)) {}
+SqliteStore::SqliteStore(std::string path) : path_(std::move(path)), stmts_(std::make_unique<sqlite::StmtCache>()) {}
 
-Store::Store(Store&& o) noexcept : path_(std::move(o.path_)), db_(std::exchange(o.db_, nullptr)) {}
-
-Store& Store::operator=(Store&& o) noexcept {
-  if (this != &o) {
-    if (db_) sqlite3_close_v2(static_cast<sqlite3*>(db_));
-    path_ = std::move(o.path_);
-    db_ = std::exchange(o.db_, nullptr);
-  }
-  return *this;
-}
-
-Store::~Store() {
+SqliteStore::~SqliteStore() {
+  stmts_.reset();  // finalizes the kept statements: a connection closes only once they are gone
   if (db_) sqlite3_close_v2(static_cast<sqlite3*>(db_));
 }
 
-Store Store::open(const std::string& path, bool create) {
-  if (path.empty()) throw Error("map store: empty database path");
-  Store store(path);
+Db SqliteStore::conn() const { return sqlite::checked(db_, path_, kMapStore, stmts_.get()); }
+
+std::unique_ptr<StoreBackend> detail::open_sqlite(const std::string& path, bool create) {
+  auto store = std::make_unique<SqliteStore>(path);
   sqlite3* handle = nullptr;
   int flags = SQLITE_OPEN_READWRITE | (create ? SQLITE_OPEN_CREATE : 0);
+  sqlite::configure_library();
   int rc = sqlite3_open_v2(path.c_str(), &handle, flags, nullptr);
-  store.db_ = handle;  // closed by ~Store even when opening failed
+  store->db_ = handle;  // closed by ~SqliteStore even when opening failed
   if (rc != SQLITE_OK) {
     std::string msg = handle ? sqlite3_errmsg(handle) : sqlite3_errstr(rc);
     throw Error(path + ": cannot open the map store: " + msg + (create ? "" : " (does the file exist?)"));
@@ -407,14 +397,14 @@ Store Store::open(const std::string& path, bool create) {
   return store;
 }
 
-int Store::schema_version() const {
-  return static_cast<int>(pragma_int(handle(db_, path_), "PRAGMA user_version"));
+int SqliteStore::schema_version() const {
+  return static_cast<int>(pragma_int(conn(), "PRAGMA user_version"));
 }
 
 // ---- maps ----------------------------------------------------------------------------------------
 
-MapInfo Store::create_map(const std::string& name, const GeoPoint& origin, double tile_size, double voxel_size) {
-  const Db db = handle(db_, path_);
+MapInfo SqliteStore::create_map(const std::string& name, const GeoPoint& origin, double tile_size, double voxel_size) {
+  const Db db = conn();
   if (!api::valid_map_name(name))
     throw Error(path_ + ": invalid map name \"" + name + "\": use 1 to 64 of A-Z a-z 0-9 _ . -");
   if (!(origin.lat_deg >= -90 && origin.lat_deg <= 90) || !(origin.lon_deg >= -180 && origin.lon_deg <= 180) ||
@@ -442,12 +432,12 @@ MapInfo Store::create_map(const std::string& name, const GeoPoint& origin, doubl
   return *info;
 }
 
-std::optional<MapInfo> Store::find_map(const std::string& name) const {
-  return find_map_row(handle(db_, path_), name);
+std::optional<MapInfo> SqliteStore::find_map(const std::string& name) const {
+  return find_map_row(conn(), name);
 }
 
-std::vector<MapInfo> Store::list_maps() const {
-  Stmt st(handle(db_, path_), (std::string(kMapColumns) + "ORDER BY name").c_str());
+std::vector<MapInfo> SqliteStore::list_maps() const {
+  Stmt st(conn(), (std::string(kMapColumns) + "ORDER BY name").c_str());
   std::vector<MapInfo> out;
   while (st.step()) out.push_back(read_map(st));
   return out;
@@ -455,8 +445,8 @@ std::vector<MapInfo> Store::list_maps() const {
 
 // ---- versions ------------------------------------------------------------------------------------
 
-VersionInfo Store::create_version(const std::string& map, std::optional<std::int64_t> parent, const std::string& note) {
-  const Db db = handle(db_, path_);
+VersionInfo SqliteStore::create_version(const std::string& map, std::optional<std::int64_t> parent, const std::string& note) {
+  const Db db = conn();
   WriteScope tx(db);
   std::int64_t map_id = require_map(db, map);
   if (parent) {
@@ -501,15 +491,15 @@ VersionInfo Store::create_version(const std::string& map, std::optional<std::int
   return *info;
 }
 
-std::optional<VersionInfo> Store::find_version(const std::string& map, std::int64_t number) const {
-  const Db db = handle(db_, path_);
+std::optional<VersionInfo> SqliteStore::find_version(const std::string& map, std::int64_t number) const {
+  const Db db = conn();
   auto map_id = find_map_id(db, map);
   if (!map_id) return std::nullopt;
   return find_version_row(db, *map_id, number);
 }
 
-std::vector<VersionInfo> Store::list_versions(const std::string& map) const {
-  const Db db = handle(db_, path_);
+std::vector<VersionInfo> SqliteStore::list_versions(const std::string& map) const {
+  const Db db = conn();
   std::vector<VersionInfo> out;
   auto map_id = find_map_id(db, map);
   if (!map_id) return out;
@@ -519,8 +509,8 @@ std::vector<VersionInfo> Store::list_versions(const std::string& map) const {
   return out;
 }
 
-void Store::publish(const std::string& map, std::int64_t number) {
-  const Db db = handle(db_, path_);
+void SqliteStore::publish(const std::string& map, std::int64_t number) {
+  const Db db = conn();
   WriteScope tx(db);  // one IMMEDIATE transaction (a savepoint inside a Transaction)
   std::int64_t map_id = require_map(db, map);
   VersionState state = require_version(db, map, map_id, number);
@@ -549,8 +539,8 @@ void Store::publish(const std::string& map, std::int64_t number) {
   tx.commit();
 }
 
-std::int64_t Store::rollback(const std::string& map) {
-  const Db db = handle(db_, path_);
+std::int64_t SqliteStore::rollback(const std::string& map) {
+  const Db db = conn();
   WriteScope tx(db);
   std::int64_t map_id = require_map(db, map);
   auto cur = current_version(db, map_id);

@@ -9,6 +9,7 @@
 
 #include "pl/schema/detail/sqlite.hpp"
 #include "pl/schema/store.hpp"
+#include "store_backend.hpp"
 
 namespace pl::store::detail {
 
@@ -18,8 +19,6 @@ inline constexpr const char* kTileColumns =
     "SELECT t.tx, t.ty, t.hash, t.points, t.bytes, t.min_x, t.min_y, t.min_z, t.max_x, t.max_y, t.max_z "
     "FROM tiles AS t ";
 
-// The connection of a store file, with its name and fixes for messages.
-sqlite::Db handle(void* db, const std::string& path);
 std::int64_t pragma_int(const sqlite::Db& db, const char* sql);
 std::string num(std::int64_t v);
 std::string read_timestamp(const sqlite::Row& row, int col, const char* column);
@@ -34,6 +33,58 @@ void require_staged(const sqlite::Db& db, const std::string& map, std::int64_t m
 TileRecord read_tile(const sqlite::Stmt& st);  // a row of kTileColumns, checked
 std::optional<std::string> tile_hash(const sqlite::Db& db, std::int64_t map_id, std::int64_t version, const TileKey& key);
 void drop_blob_if_unused(const sqlite::Db& db, const std::string& hash);
+
+// The SQLite engine: one connection to one file, with the statements it prepared kept for reuse.
+class SqliteStore final : public StoreBackend {
+ public:
+  explicit SqliteStore(std::string path);
+  ~SqliteStore() override;
+  SqliteStore(const SqliteStore&) = delete;
+  SqliteStore& operator=(const SqliteStore&) = delete;
+
+  const std::string& path() const override { return path_; }
+  int schema_version() const override;
+  MapInfo create_map(const std::string& name, const GeoPoint& origin, double tile_size, double voxel_size) override;
+  std::optional<MapInfo> find_map(const std::string& name) const override;
+  std::vector<MapInfo> list_maps() const override;
+  VersionInfo create_version(const std::string& map, std::optional<std::int64_t> parent, const std::string& note) override;
+  std::optional<VersionInfo> find_version(const std::string& map, std::int64_t number) const override;
+  std::vector<VersionInfo> list_versions(const std::string& map) const override;
+  void publish(const std::string& map, std::int64_t number) override;
+  std::int64_t rollback(const std::string& map) override;
+  TileRecord put_tile(const std::string& map, std::int64_t version, const TileKey& key, std::string_view draco_bytes,
+                      std::int64_t points, double min_x, double min_y, double min_z, double max_x, double max_y,
+                      double max_z) override;
+  bool delete_tile(const std::string& map, std::int64_t version, const TileKey& key) override;
+  std::optional<TileRecord> find_tile(const std::string& map, std::int64_t version, const TileKey& key) const override;
+  std::vector<TileRecord> list_tiles(const std::string& map, std::int64_t version) const override;
+  std::vector<TileRecord> tiles_in_box(const std::string& map, std::int64_t version, double min_x, double min_y,
+                                       double max_x, double max_y) const override;
+  std::optional<std::string> blob(const std::string& hash) const override;
+  bool has_blob(const std::string& hash) const override;
+  void put_places(const std::string& map, std::int64_t version, std::string_view bytes) override;
+  bool delete_places(const std::string& map, std::int64_t version) override;
+  std::optional<std::string> places(const std::string& map, std::int64_t version) const override;
+  std::optional<std::string> places_hash(const std::string& map, std::int64_t version) const override;
+  void add_token(const std::string& token, Role role, const std::string& note) override;
+  std::optional<Role> check_token(const std::string& token) const override;
+  void log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
+                  const std::string& detail, const std::string& who) override;
+  std::vector<Store::LogEntry> upload_log(const std::string& map) const override;
+  bool begin_transaction() override;
+  void commit_transaction(bool nested) override;
+  void rollback_transaction_quietly(bool nested) noexcept override;
+  std::int64_t database_bytes() const override;
+  bool integrity_ok() const override;
+
+ private:
+  friend std::unique_ptr<StoreBackend> open_sqlite(const std::string& path, bool create);
+  sqlite::Db conn() const;  // the connection, with the file's name and the kept statements
+
+  std::string path_;
+  void* db_ = nullptr;  // sqlite3*
+  std::unique_ptr<sqlite::StmtCache> stmts_;
+};
 
 }  // namespace pl::store::detail
 

@@ -28,8 +28,8 @@ std::string version_name(const std::string& map, std::int64_t version) { return 
 
 }  // namespace
 
-void Store::put_places(const std::string& map, std::int64_t version, std::string_view bytes) {
-  const Db db = handle(db_, path_);
+void SqliteStore::put_places(const std::string& map, std::int64_t version, std::string_view bytes) {
+  const Db db = conn();
   const std::string where = path_ + ": " + version_name(map, version) + " places";
   if (bytes.empty()) throw Error(where + ": empty places data (places are the non-empty bytes pl-map build writes)");
   if (bytes.size() > api::kMaxPlacesBytes)
@@ -53,8 +53,8 @@ void Store::put_places(const std::string& map, std::int64_t version, std::string
   tx.commit();
 }
 
-bool Store::delete_places(const std::string& map, std::int64_t version) {
-  const Db db = handle(db_, path_);
+bool SqliteStore::delete_places(const std::string& map, std::int64_t version) {
+  const Db db = conn();
   WriteScope tx(db);
   std::int64_t map_id = require_map(db, map);
   require_staged(db, map, map_id, version, "places");
@@ -68,8 +68,8 @@ bool Store::delete_places(const std::string& map, std::int64_t version) {
   return true;
 }
 
-std::optional<std::string> Store::places(const std::string& map, std::int64_t version) const {
-  const Db db = handle(db_, path_);
+std::optional<std::string> SqliteStore::places(const std::string& map, std::int64_t version) const {
+  const Db db = conn();
   auto map_id = find_map_id(db, map);
   if (!map_id) return std::nullopt;
   Stmt st(db, (std::string("SELECT hash, bytes, size, ") + kPlacesRow).c_str());
@@ -87,8 +87,8 @@ std::optional<std::string> Store::places(const std::string& map, std::int64_t ve
   return bytes;
 }
 
-std::optional<std::string> Store::places_hash(const std::string& map, std::int64_t version) const {
-  const Db db = handle(db_, path_);
+std::optional<std::string> SqliteStore::places_hash(const std::string& map, std::int64_t version) const {
+  const Db db = conn();
   auto map_id = find_map_id(db, map);
   if (!map_id) return std::nullopt;
   Stmt st(db, (std::string("SELECT hash, size, ") + kPlacesRow).c_str());

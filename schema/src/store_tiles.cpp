@@ -20,10 +20,10 @@ using namespace detail;
 
 // ---- tiles ---------------------------------------------------------------------------------------
 
-TileRecord Store::put_tile(const std::string& map, std::int64_t version, const TileKey& key,
+TileRecord SqliteStore::put_tile(const std::string& map, std::int64_t version, const TileKey& key,
                            std::string_view draco_bytes, std::int64_t points, double min_x, double min_y, double min_z,
                            double max_x, double max_y, double max_z) {
-  const Db db = handle(db_, path_);
+  const Db db = conn();
   const std::string where =
       path_ + ": map " + map + " version " + num(version) + " tile (" + num(key.tx) + ", " + num(key.ty) + ")";
   if (draco_bytes.empty()) throw Error(where + ": empty tile data");
@@ -82,8 +82,8 @@ TileRecord Store::put_tile(const std::string& map, std::int64_t version, const T
   return rec;
 }
 
-bool Store::delete_tile(const std::string& map, std::int64_t version, const TileKey& key) {
-  const Db db = handle(db_, path_);
+bool SqliteStore::delete_tile(const std::string& map, std::int64_t version, const TileKey& key) {
+  const Db db = conn();
   WriteScope tx(db);
   std::int64_t map_id = require_map(db, map);
   require_staged(db, map, map_id, version);
@@ -100,8 +100,8 @@ bool Store::delete_tile(const std::string& map, std::int64_t version, const Tile
   return true;
 }
 
-std::optional<TileRecord> Store::find_tile(const std::string& map, std::int64_t version, const TileKey& key) const {
-  const Db db = handle(db_, path_);
+std::optional<TileRecord> SqliteStore::find_tile(const std::string& map, std::int64_t version, const TileKey& key) const {
+  const Db db = conn();
   auto map_id = find_map_id(db, map);
   if (!map_id) return std::nullopt;
   Stmt st(db,
@@ -111,8 +111,8 @@ std::optional<TileRecord> Store::find_tile(const std::string& map, std::int64_t 
   return read_tile(st);
 }
 
-std::vector<TileRecord> Store::list_tiles(const std::string& map, std::int64_t version) const {
-  const Db db = handle(db_, path_);
+std::vector<TileRecord> SqliteStore::list_tiles(const std::string& map, std::int64_t version) const {
+  const Db db = conn();
   std::vector<TileRecord> out;
   auto map_id = find_map_id(db, map);
   if (!map_id) return out;
@@ -122,9 +122,9 @@ std::vector<TileRecord> Store::list_tiles(const std::string& map, std::int64_t v
   return out;
 }
 
-std::vector<TileRecord> Store::tiles_in_box(const std::string& map, std::int64_t version, double min_x, double min_y,
+std::vector<TileRecord> SqliteStore::tiles_in_box(const std::string& map, std::int64_t version, double min_x, double min_y,
                                             double max_x, double max_y) const {
-  const Db db = handle(db_, path_);
+  const Db db = conn();
   std::vector<TileRecord> out;
   if (!(min_x <= max_x && min_y <= max_y)) return out;  // inverted or NaN: nothing
   auto map_id = find_map_id(db, map);
@@ -149,8 +149,8 @@ std::vector<TileRecord> Store::tiles_in_box(const std::string& map, std::int64_t
   return out;
 }
 
-std::optional<std::string> Store::blob(const std::string& hash) const {
-  Stmt st(handle(db_, path_), "SELECT bytes FROM blobs WHERE hash = ?1");
+std::optional<std::string> SqliteStore::blob(const std::string& hash) const {
+  Stmt st(conn(), "SELECT bytes FROM blobs WHERE hash = ?1");
   st.bind_text(1, hash);
   if (!st.step()) return std::nullopt;
   Row row(st, "blobs");
@@ -161,16 +161,16 @@ std::optional<std::string> Store::blob(const std::string& hash) const {
   return bytes;
 }
 
-bool Store::has_blob(const std::string& hash) const {
-  Stmt st(handle(db_, path_), "SELECT 1 FROM blobs WHERE hash = ?1");
+bool SqliteStore::has_blob(const std::string& hash) const {
+  Stmt st(conn(), "SELECT 1 FROM blobs WHERE hash = ?1");
   st.bind_text(1, hash);
   return st.step();
 }
 
 // ---- tokens and the upload log -------------------------------------------------------------------
 
-void Store::add_token(const std::string& token, Role role, const std::string& note) {
-  const Db db = handle(db_, path_);
+void SqliteStore::add_token(const std::string& token, Role role, const std::string& note) {
+  const Db db = conn();
   if (token.empty()) throw Error(path_ + ": empty token");
   if (!parse_role(role_name(role))) throw Error(path_ + ": invalid role " + num(static_cast<int>(role)));
   std::string hash = content_hash(token);
@@ -189,8 +189,8 @@ void Store::add_token(const std::string& token, Role role, const std::string& no
   tx.commit();
 }
 
-std::optional<Role> Store::check_token(const std::string& token) const {
-  const Db db = handle(db_, path_);
+std::optional<Role> SqliteStore::check_token(const std::string& token) const {
+  const Db db = conn();
   if (token.empty()) return std::nullopt;
   Stmt st(db, "SELECT role FROM tokens WHERE hash = ?1");
   st.bind_text(1, content_hash(token));
@@ -201,9 +201,9 @@ std::optional<Role> Store::check_token(const std::string& token) const {
   return role;
 }
 
-void Store::log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
+void SqliteStore::log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
                        const std::string& detail, const std::string& who) {
-  const Db db = handle(db_, path_);
+  const Db db = conn();
   if (action.empty()) throw Error(path_ + ": upload log entry without an action");
   Stmt(db, "INSERT INTO upload_log (map, version, action, detail, who) VALUES (?1, ?2, ?3, ?4, ?5)")
       .bind_text(1, map)
@@ -214,14 +214,14 @@ void Store::log_upload(const std::string& map, std::optional<std::int64_t> versi
       .run();
 }
 
-std::vector<Store::LogEntry> Store::upload_log(const std::string& map) const {
-  Stmt st(handle(db_, path_),
+std::vector<Store::LogEntry> SqliteStore::upload_log(const std::string& map) const {
+  Stmt st(conn(),
           "SELECT id, at, map, version, action, detail, who FROM upload_log WHERE map = ?1 ORDER BY id");
   st.bind_text(1, map);
-  std::vector<LogEntry> out;
+  std::vector<Store::LogEntry> out;
   while (st.step()) {
     Row row(st, "upload_log");
-    LogEntry e;
+    Store::LogEntry e;
     e.id = row.integer(0, "id");
     e.at = read_timestamp(row, 1, "at");
     e.map = row.text(2, "map");
@@ -236,28 +236,21 @@ std::vector<Store::LogEntry> Store::upload_log(const std::string& map) const {
 
 // ---- transactions and maintenance ----------------------------------------------------------------
 
-Store::Transaction::Transaction(Store& store) : store_(store) {
-  nested_ = sqlite::begin_write(handle(store_.db_, store_.path_), "pl_transaction");
+bool SqliteStore::begin_transaction() { return sqlite::begin_write(conn(), "pl_transaction"); }
+
+void SqliteStore::commit_transaction(bool nested) { sqlite::commit_write(conn(), "pl_transaction", nested); }
+
+void SqliteStore::rollback_transaction_quietly(bool nested) noexcept {
+  if (db_) sqlite::rollback_write_quietly(static_cast<sqlite3*>(db_), "pl_transaction", nested);
 }
 
-void Store::Transaction::commit() {
-  if (done_) throw Error(store_.path_ + ": transaction committed twice");
-  sqlite::commit_write(handle(store_.db_, store_.path_), "pl_transaction", nested_);
-  done_ = true;
-}
-
-Store::Transaction::~Transaction() {
-  if (!done_ && store_.db_)
-    sqlite::rollback_write_quietly(static_cast<sqlite3*>(store_.db_), "pl_transaction", nested_);
-}
-
-std::int64_t Store::database_bytes() const {
-  const Db db = handle(db_, path_);
+std::int64_t SqliteStore::database_bytes() const {
+  const Db db = conn();
   return pragma_int(db, "PRAGMA page_count") * pragma_int(db, "PRAGMA page_size");
 }
 
-bool Store::integrity_ok() const {
-  const Db db = handle(db_, path_);
+bool SqliteStore::integrity_ok() const {
+  const Db db = conn();
   try {
     {
       Stmt st(db, "PRAGMA integrity_check");

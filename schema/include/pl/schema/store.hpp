@@ -1,5 +1,7 @@
-// The map store: versioned maps of Draco tiles in one SQLite file (schema/*.sql, migrated by
-// PRAGMA user_version). WAL mode, foreign keys on. A Store is one connection: open one per thread.
+// The map store: versioned maps of Draco tiles, in one SQLite file (the default: schema/NNN_*.sql,
+// migrated by PRAGMA user_version, WAL mode, foreign keys on) or in a PostgreSQL database (a
+// postgresql:// URL: schema/pg/NNN_*.sql, the same tables and rules in PostgreSQL's dialect). Both
+// keep every promise below. A Store is one connection: open one per thread.
 //
 // Semantics (the schema is in schema/001_initial.sql and 002_places.sql):
 // - Every error (SQLite's included) is a pl::Error whose message starts with the database path.
@@ -30,6 +32,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -39,6 +42,10 @@
 #include "pl/common/tile_key.hpp"
 
 namespace pl::store {
+
+namespace detail {
+class StoreBackend;  // the engine: SQLite or PostgreSQL (schema/src/store_backend.hpp)
+}
 
 enum class VersionState { Staged, Published, Retired };
 const char* state_name(VersionState s);
@@ -79,10 +86,13 @@ std::string content_hash(std::string_view bytes);
 
 class Store {
  public:
-  // Opens (creating when `create`) and migrates the database. Throws pl::Error naming the file and
-  // the problem (not a database, newer schema than this build knows, read-only, damaged, ...).
-  // Without `create` a missing or empty file is an error. Migrations run in one transaction each.
-  static Store open(const std::string& path, bool create = true);
+  // Opens (creating when `create`) and migrates the database: `db` is a SQLite file path, or a
+  // postgresql://USER[:PASSWORD]@HOST[:PORT]/DATABASE URL (postgres:// too) of an existing
+  // database. Throws pl::Error naming the file (the URL without its password) and the problem (not
+  // a database, newer schema than this build knows, read-only, damaged, unreachable, ...). Without
+  // `create` a missing or empty file, or a database without the store's tables, is an error.
+  // Migrations run in one transaction each.
+  static Store open(const std::string& db, bool create = true);
   // The newest schema version (PRAGMA user_version) this build can migrate to.
   static int latest_schema_version();
   Store(Store&&) noexcept;
@@ -92,7 +102,7 @@ class Store {
   ~Store();
 
   int schema_version() const;
-  const std::string& path() const { return path_; }
+  const std::string& path() const;  // what messages name: the file, or the URL without its password
 
   // Maps. create_map throws pl::Error when the name is taken or invalid ([A-Za-z0-9_.-]{1,64}), the
   // origin is not a valid latitude/longitude, or a size is not a positive number. find_map returns
@@ -185,15 +195,17 @@ class Store {
     bool nested_ = false;  // a SAVEPOINT inside an already open transaction (else BEGIN IMMEDIATE)
   };
 
-  std::int64_t database_bytes() const;  // page_count * page_size
-  // PRAGMA integrity_check == "ok", no foreign key violations, and the R*Tree is sound and holds
-  // exactly one entry (containing the tile's xy box) per tile. False for a corrupt file.
+  // SQLite: page_count * page_size; PostgreSQL: pg_database_size of the database.
+  std::int64_t database_bytes() const;
+  // SQLite: PRAGMA integrity_check == "ok", no foreign key violations, and the R*Tree is sound and
+  // holds exactly one entry (containing the tile's xy box) per tile. PostgreSQL: every blob hashes
+  // to its hash and the rules the schema states hold. False for a corrupt store.
   bool integrity_ok() const;
 
  private:
-  explicit Store(std::string path);
-  std::string path_;
-  void* db_ = nullptr;  // sqlite3*
+  explicit Store(std::unique_ptr<detail::StoreBackend> impl);
+  detail::StoreBackend& impl() const;  // throws pl::Error "map store: used after it was moved from"
+  std::unique_ptr<detail::StoreBackend> impl_;
 };
 
 }  // namespace pl::store

@@ -47,24 +47,54 @@ struct FileKind {
   const char* if_newer;          // the fix for a file written by a newer build
 };
 
-// One connection as the helpers see it: the handle, and the file's path and kind for messages.
-// Borrows all three: it is made for a call (Store and TileCache own the handle and the path).
+// The prepared statements of one connection kept for reuse, by SQL text. Preparing (parsing and
+// planning) a short query costs SQLite more than running it: a server answering thousands of
+// lookups a second spends a third of its time there without this. A statement is lent out whole
+// (two Stmts of the same SQL at once get two statements) and given back reset, without bindings.
+// Owned next to the connection and destroyed before it is closed (it finalizes what it keeps).
+class StmtCache {
+ public:
+  StmtCache() = default;
+  ~StmtCache();
+  StmtCache(const StmtCache&) = delete;
+  StmtCache& operator=(const StmtCache&) = delete;
+
+  sqlite3_stmt* take(const char* sql);         // a kept statement of this SQL, or null
+  void give(sqlite3_stmt* s);                   // keeps it (reset and cleared), or finalizes it
+
+ private:
+  static constexpr std::size_t kMaxKept = 128;  // the store's SQL texts number about 60
+  std::map<std::string, sqlite3_stmt*, std::less<>> kept_;
+};
+
+// One connection as the helpers see it: the handle, and the file's path and kind for messages, and
+// the connection's kept statements (if it keeps any). Borrows all of them: it is made for a call
+// (Store and TileCache own the handle, the path and the cache).
 class Db {
  public:
-  Db(sqlite3* handle, const std::string& path, const FileKind& kind) : handle_(handle), path_(&path), kind_(&kind) {}
+  Db(sqlite3* handle, const std::string& path, const FileKind& kind, StmtCache* stmts = nullptr)
+      : handle_(handle), path_(&path), kind_(&kind), stmts_(stmts) {}
   sqlite3* get() const { return handle_; }
   const std::string& path() const { return *path_; }
   const FileKind& kind() const { return *kind_; }
+  StmtCache* stmts() const { return stmts_; }
 
  private:
   sqlite3* handle_;
   const std::string* path_;
   const FileKind* kind_;
+  StmtCache* stmts_;
 };
 
 // The connection of an object that owns `handle` (a sqlite3*, or null once closed or moved from):
 // throws pl::Error "KIND: used after it was moved from" (no path) or "PATH: the KIND is closed".
-Db checked(void* handle, const std::string& path, const FileKind& kind);
+Db checked(void* handle, const std::string& path, const FileKind& kind, StmtCache* stmts = nullptr);
+
+// Process-wide settings, made once before the first connection opens (no-ops once SQLite has
+// started, e.g. when another part of the program opened a database first): no memory statistics,
+// whose global mutex every allocation takes, so that threads on separate connections do not wait
+// on each other.
+void configure_library();
 
 // The settings of every connection, made right after sqlite3_open_v2(SQLITE_OPEN_READWRITE ...),
 // before the first read (sqlite.cpp says why each is there); then refuses a file SQLite may only
@@ -90,6 +120,8 @@ std::int64_t query_int(const Db& db, const char* sql);
 // Text from the file for a message: one line of printable ASCII, at most `max` characters.
 std::string plain(const std::string& s, std::size_t max = 160);
 
+// A statement: taken from the connection's StmtCache when it keeps one of this SQL (else prepared),
+// and given back to it when destroyed (else finalized).
 class Stmt {
  public:
   Stmt(const Db& db, const char* sql);

@@ -1,0 +1,112 @@
+// Store: the public face of the map store. It picks the engine from the name it is given and
+// forwards every call to it (store_backend.hpp); the promises are in store.hpp.
+#include <utility>
+
+#include "pl/common/error.hpp"
+#include "pl/schema/store.hpp"
+#include "store_backend.hpp"
+
+namespace pl::store {
+
+bool detail::is_postgres_url(std::string_view db) {
+  return db.rfind("postgresql://", 0) == 0 || db.rfind("postgres://", 0) == 0;
+}
+
+#ifndef PL_STORE_POSTGRES
+// Until the PostgreSQL engine (store_pg.cpp, which defines PL_STORE_POSTGRES for pl_schema) is built.
+std::unique_ptr<detail::StoreBackend> detail::open_postgres(const std::string& url, bool) {
+  throw Error(url.substr(0, url.find("://") + 3) + "...: this build of PointLocalization has no PostgreSQL map store");
+}
+#endif
+
+Store::Store(std::unique_ptr<detail::StoreBackend> impl) : impl_(std::move(impl)) {}
+Store::Store(Store&&) noexcept = default;
+Store& Store::operator=(Store&&) noexcept = default;
+Store::~Store() = default;
+
+Store Store::open(const std::string& db, bool create) {
+  if (db.empty()) throw Error("map store: empty database path");
+  return Store(detail::is_postgres_url(db) ? detail::open_postgres(db, create) : detail::open_sqlite(db, create));
+}
+
+detail::StoreBackend& Store::impl() const {
+  if (!impl_) throw Error("map store: used after it was moved from");
+  return *impl_;
+}
+
+int Store::schema_version() const { return impl().schema_version(); }
+const std::string& Store::path() const { return impl().path(); }
+
+MapInfo Store::create_map(const std::string& name, const GeoPoint& origin, double tile_size, double voxel_size) {
+  return impl().create_map(name, origin, tile_size, voxel_size);
+}
+std::optional<MapInfo> Store::find_map(const std::string& name) const { return impl().find_map(name); }
+std::vector<MapInfo> Store::list_maps() const { return impl().list_maps(); }
+
+VersionInfo Store::create_version(const std::string& map, std::optional<std::int64_t> parent, const std::string& note) {
+  return impl().create_version(map, parent, note);
+}
+std::optional<VersionInfo> Store::find_version(const std::string& map, std::int64_t number) const {
+  return impl().find_version(map, number);
+}
+std::vector<VersionInfo> Store::list_versions(const std::string& map) const { return impl().list_versions(map); }
+void Store::publish(const std::string& map, std::int64_t number) { impl().publish(map, number); }
+std::int64_t Store::rollback(const std::string& map) { return impl().rollback(map); }
+
+TileRecord Store::put_tile(const std::string& map, std::int64_t version, const TileKey& key, std::string_view draco_bytes,
+                           std::int64_t points, double min_x, double min_y, double min_z, double max_x, double max_y,
+                           double max_z) {
+  return impl().put_tile(map, version, key, draco_bytes, points, min_x, min_y, min_z, max_x, max_y, max_z);
+}
+bool Store::delete_tile(const std::string& map, std::int64_t version, const TileKey& key) {
+  return impl().delete_tile(map, version, key);
+}
+std::optional<TileRecord> Store::find_tile(const std::string& map, std::int64_t version, const TileKey& key) const {
+  return impl().find_tile(map, version, key);
+}
+std::vector<TileRecord> Store::list_tiles(const std::string& map, std::int64_t version) const {
+  return impl().list_tiles(map, version);
+}
+std::vector<TileRecord> Store::tiles_in_box(const std::string& map, std::int64_t version, double min_x, double min_y,
+                                            double max_x, double max_y) const {
+  return impl().tiles_in_box(map, version, min_x, min_y, max_x, max_y);
+}
+std::optional<std::string> Store::blob(const std::string& hash) const { return impl().blob(hash); }
+bool Store::has_blob(const std::string& hash) const { return impl().has_blob(hash); }
+
+void Store::put_places(const std::string& map, std::int64_t version, std::string_view bytes) {
+  impl().put_places(map, version, bytes);
+}
+bool Store::delete_places(const std::string& map, std::int64_t version) { return impl().delete_places(map, version); }
+std::optional<std::string> Store::places(const std::string& map, std::int64_t version) const {
+  return impl().places(map, version);
+}
+std::optional<std::string> Store::places_hash(const std::string& map, std::int64_t version) const {
+  return impl().places_hash(map, version);
+}
+
+void Store::add_token(const std::string& token, Role role, const std::string& note) { impl().add_token(token, role, note); }
+std::optional<Role> Store::check_token(const std::string& token) const { return impl().check_token(token); }
+
+void Store::log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
+                       const std::string& detail, const std::string& who) {
+  impl().log_upload(map, version, action, detail, who);
+}
+std::vector<Store::LogEntry> Store::upload_log(const std::string& map) const { return impl().upload_log(map); }
+
+Store::Transaction::Transaction(Store& store) : store_(store) { nested_ = store_.impl().begin_transaction(); }
+
+void Store::Transaction::commit() {
+  if (done_) throw Error(store_.path() + ": transaction committed twice");
+  store_.impl().commit_transaction(nested_);
+  done_ = true;
+}
+
+Store::Transaction::~Transaction() {
+  if (!done_ && store_.impl_) store_.impl_->rollback_transaction_quietly(nested_);
+}
+
+std::int64_t Store::database_bytes() const { return impl().database_bytes(); }
+bool Store::integrity_ok() const { return impl().integrity_ok(); }
+
+}  // namespace pl::store
