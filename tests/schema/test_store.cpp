@@ -15,6 +15,7 @@
 #include "pl/common/error.hpp"
 #include "pl/schema/api_rules.hpp"
 #include "pl/schema/store.hpp"
+#include "store_backends.hpp"
 #include "store_test_util.hpp"
 #include "error_of.hpp"
 #include "raw_sql.hpp"
@@ -46,7 +47,12 @@ bool is_utc_iso8601(const std::string& s) {
   return std::regex_match(s, std::regex(R"(\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3}Z)"));
 }
 
-class StoreTest : public ::testing::Test {
+// The store on both engines (store_backends.hpp): `path` is a SQLite file or a PostgreSQL URL.
+using StoreTest = pl::test::BackendTest;
+PL_BOTH_BACKENDS(StoreTest);
+
+// What only a SQLite file has: its bytes, its header, PRAGMAs, the WAL, migrations of old files.
+class SqliteStoreTest : public ::testing::Test {
  protected:
   pl::test::TempDir dir;
   std::string path = dir / "maps.db";
@@ -74,7 +80,7 @@ TEST(StoreBasics, RoleAndStateNames) {
 
 // ---- opening and migrating -----------------------------------------------------------------------
 
-TEST_F(StoreTest, MigratesAFreshFileAndReopens) {
+TEST_P(StoreTest, MigratesAFreshFileAndReopens) {
   {
     Store s = Store::open(path);
     EXPECT_EQ(s.schema_version(), Store::latest_schema_version());
@@ -82,12 +88,17 @@ TEST_F(StoreTest, MigratesAFreshFileAndReopens) {
     EXPECT_EQ(s.path(), path);
     s.create_map("city", kOrigin, 20.0, 0.2);
   }
-  {
+  if (sqlite()) {
     RawDb raw(path);
     EXPECT_EQ(raw.scalar("PRAGMA user_version"), Store::latest_schema_version());
     EXPECT_EQ(raw.text("PRAGMA journal_mode"), "wal");
     for (const char* t : {"maps", "versions", "blobs", "tiles", "tile_rtree", "tokens", "upload_log", "places"})
       EXPECT_EQ(raw.scalar(std::string("SELECT count(*) FROM sqlite_schema WHERE name = '") + t + "'"), 1) << t;
+  } else {
+    EXPECT_EQ(raw_scalar("SELECT max(number) FROM schema_migrations"), Store::latest_schema_version());
+    for (const char* t : {"maps", "versions", "blobs", "tiles", "tokens", "upload_log", "places", "schema_migrations"})
+      EXPECT_EQ(raw_scalar(std::string("SELECT count(*) FROM pg_tables WHERE tablename = '") + t + "'"), 1) << t;
+    EXPECT_EQ(raw_scalar("SELECT count(*) FROM pg_indexes WHERE indexname = 'tiles_xy' AND indexdef LIKE '%gist%'"), 1);
   }
   Store s = Store::open(path, /*create=*/false);
   EXPECT_EQ(s.schema_version(), Store::latest_schema_version());
@@ -100,7 +111,7 @@ TEST_F(StoreTest, MigratesAFreshFileAndReopens) {
   EXPECT_TRUE(s.integrity_ok());
 }
 
-TEST_F(StoreTest, RefusesANewerSchema) {
+TEST_F(SqliteStoreTest, RefusesANewerSchema) {
   { Store s = Store::open(path); }
   {
     RawDb raw(path);
@@ -114,7 +125,7 @@ TEST_F(StoreTest, RefusesANewerSchema) {
   EXPECT_EQ(raw.scalar("PRAGMA user_version"), Store::latest_schema_version() + 1);  // left alone
 }
 
-TEST_F(StoreTest, MigratesASchema1StoreOnOpen) {
+TEST_F(SqliteStoreTest, MigratesASchema1StoreOnOpen) {
   // A store as a build of schema version 1 left it: migration 001 alone, then a map with one
   // published version and one tile, written by SQLite directly.
   const std::string schema_1 = pl::test::read_file(std::string(PL_SOURCE_DIR) + "/schema/001_initial.sql");
@@ -162,7 +173,7 @@ TEST_F(StoreTest, MigratesASchema1StoreOnOpen) {
   EXPECT_EQ(again.places("old", 2), "descriptors");
 }
 
-TEST_F(StoreTest, RefusesAFileThatIsNotSqlite) {
+TEST_F(SqliteStoreTest, RefusesAFileThatIsNotSqlite) {
   std::string text;
   while (text.size() < 8192) text += "this is a text file, not a map store\n";
   pl::test::write_file(path, text);
@@ -172,7 +183,7 @@ TEST_F(StoreTest, RefusesAFileThatIsNotSqlite) {
   EXPECT_EQ(file_bytes(path), text);  // untouched
 }
 
-TEST_F(StoreTest, RefusesAnotherApplicationsDatabase) {
+TEST_F(SqliteStoreTest, RefusesAnotherApplicationsDatabase) {
   {
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
@@ -185,13 +196,13 @@ TEST_F(StoreTest, RefusesAnotherApplicationsDatabase) {
   EXPECT_TRUE(contains(msg, "not a map store")) << msg;
 }
 
-TEST_F(StoreTest, OpenWithoutCreateNeedsAnExistingFile) {
+TEST_F(SqliteStoreTest, OpenWithoutCreateNeedsAnExistingFile) {
   std::string msg = error_of([&] { Store::open(path, /*create=*/false); });
   EXPECT_TRUE(contains(msg, path)) << msg;
   EXPECT_FALSE(std::filesystem::exists(path));
 }
 
-TEST_F(StoreTest, RefusesAReadOnlyFile) {
+TEST_F(SqliteStoreTest, RefusesAReadOnlyFile) {
   if (geteuid() == 0) GTEST_SKIP() << "root ignores file permissions";
   { Store s = Store::open(path); }
   std::filesystem::permissions(path, std::filesystem::perms::owner_read | std::filesystem::perms::group_read);
@@ -200,11 +211,11 @@ TEST_F(StoreTest, RefusesAReadOnlyFile) {
   EXPECT_TRUE(contains(msg, "read-only")) << msg;
 }
 
-TEST_F(StoreTest, MovedStoreKeepsTheConnection) {
+TEST_P(StoreTest, MovedStoreKeepsTheConnection) {
   Store a = Store::open(path);
   Store b = std::move(a);
   b.create_map("m", kOrigin, 20, 0.2);
-  Store c = Store::open(dir / "other.db");
+  Store c = Store::open(another("other.db"));
   c = std::move(b);
   EXPECT_TRUE(c.find_map("m"));
   EXPECT_EQ(c.path(), path);
@@ -212,7 +223,7 @@ TEST_F(StoreTest, MovedStoreKeepsTheConnection) {
 
 // ---- maps ----------------------------------------------------------------------------------------
 
-TEST_F(StoreTest, CreatesFindsAndListsMaps) {
+TEST_P(StoreTest, CreatesFindsAndListsMaps) {
   Store s = Store::open(path);
   auto b = s.create_map("b-map", kOrigin, 25.0, 0.1);
   auto a = s.create_map("a.map_1", {-33.9, 151.2, 3.0}, 20.0, 0.2);
@@ -237,7 +248,7 @@ TEST_F(StoreTest, CreatesFindsAndListsMaps) {
   EXPECT_EQ(all[1].name, "b-map");
 }
 
-TEST_F(StoreTest, ValidatesMapNamesAndParameters) {
+TEST_P(StoreTest, ValidatesMapNamesAndParameters) {
   Store s = Store::open(path);
   std::string longest(64, 'x');
   EXPECT_NO_THROW(s.create_map(longest, kOrigin, 20, 0.2));
@@ -255,7 +266,7 @@ TEST_F(StoreTest, ValidatesMapNamesAndParameters) {
   EXPECT_EQ(s.list_maps().size(), 2u);
 }
 
-TEST_F(StoreTest, RefusesADuplicateMapName) {
+TEST_P(StoreTest, RefusesADuplicateMapName) {
   Store s = Store::open(path);
   s.create_map("city", kOrigin, 20, 0.2);
   std::string msg = error_of([&] { s.create_map("city", kOrigin, 30, 0.3); });
@@ -266,7 +277,7 @@ TEST_F(StoreTest, RefusesADuplicateMapName) {
 
 // ---- versions ------------------------------------------------------------------------------------
 
-TEST_F(StoreTest, VersionLifecycle) {
+TEST_P(StoreTest, VersionLifecycle) {
   Store s = Store::open(path);
   s.create_map("m", kOrigin, 10, 0.2);
 
@@ -330,7 +341,7 @@ TEST_F(StoreTest, VersionLifecycle) {
   EXPECT_EQ(versions[1].tiles, 3);
 }
 
-TEST_F(StoreTest, VersionTotalsAndExplicitParent) {
+TEST_P(StoreTest, VersionTotalsAndExplicitParent) {
   Store s = Store::open(path);
   s.create_map("m", kOrigin, 10, 0.2);
   s.create_version("m", std::nullopt, "");
@@ -355,7 +366,7 @@ TEST_F(StoreTest, VersionTotalsAndExplicitParent) {
   EXPECT_EQ(s.list_versions("m").size(), 3u);
 }
 
-TEST_F(StoreTest, PublishAndRollbackWalkTheHistory) {
+TEST_P(StoreTest, PublishAndRollbackWalkTheHistory) {
   Store s = Store::open(path);
   s.create_map("m", kOrigin, 10, 0.2);
   EXPECT_TRUE(contains(error_of([&] { s.rollback("m"); }), "no published version"));
@@ -387,7 +398,7 @@ TEST_F(StoreTest, PublishAndRollbackWalkTheHistory) {
   EXPECT_TRUE(s.integrity_ok());
 }
 
-TEST_F(StoreTest, UnknownMapsAndVersions) {
+TEST_P(StoreTest, UnknownMapsAndVersions) {
   Store s = Store::open(path);
   EXPECT_FALSE(s.find_map("ghost"));
   EXPECT_FALSE(s.find_version("ghost", 1));
@@ -422,21 +433,20 @@ TEST_F(StoreTest, UnknownMapsAndVersions) {
 
 // ---- tiles and blobs -----------------------------------------------------------------------------
 
-TEST_F(StoreTest, PutTileIsIdempotentAndBlobsAreShared) {
+TEST_P(StoreTest, PutTileIsIdempotentAndBlobsAreShared) {
   Store s = Store::open(path);
   s.create_map("m", kOrigin, 10, 0.2);
   s.create_version("m", std::nullopt, "");
   std::string data = fake_draco(42, 1000);
   auto r1 = s.put_tile("m", 1, {3, -4}, data, 1234, 31, -39, 0, 39, -31, 2);
-  RawDb raw(path);
-  std::int64_t id1 = raw.scalar("SELECT id FROM tiles WHERE tx = 3 AND ty = -4");
+  std::int64_t id1 = raw_scalar("SELECT id FROM tiles WHERE tx = 3 AND ty = -4");
   auto r2 = s.put_tile("m", 1, {3, -4}, data, 1234, 31, -39, 0, 39, -31, 2);
   EXPECT_EQ(r1.hash, pl::store::content_hash(data));
   EXPECT_EQ(r1.bytes, 1000);
   EXPECT_EQ(r2.hash, r1.hash);
-  EXPECT_EQ(raw.scalar("SELECT id FROM tiles WHERE tx = 3 AND ty = -4"), id1);  // same record
-  EXPECT_EQ(count_rows(path, "tiles"), 1);
-  EXPECT_EQ(count_rows(path, "blobs"), 1);
+  EXPECT_EQ(raw_scalar("SELECT id FROM tiles WHERE tx = 3 AND ty = -4"), id1);  // same record
+  EXPECT_EQ(count("tiles"), 1);
+  EXPECT_EQ(count("blobs"), 1);
   EXPECT_EQ(s.blob(r1.hash), data);
   EXPECT_TRUE(s.has_blob(r1.hash));
   EXPECT_FALSE(s.has_blob(pl::store::content_hash("other")));
@@ -454,13 +464,13 @@ TEST_F(StoreTest, PutTileIsIdempotentAndBlobsAreShared) {
   s.put_tile("m", 1, {0, 0}, data, 1234, 1, 1, 0, 9, 9, 2);
   s.publish("m", 1);
   s.create_version("m", std::nullopt, "");
-  EXPECT_EQ(count_rows(path, "tiles"), 4);
-  EXPECT_EQ(count_rows(path, "blobs"), 1);
+  EXPECT_EQ(count("tiles"), 4);
+  EXPECT_EQ(count("blobs"), 1);
 
   // New bytes for a key of version 2: a second blob; version 1 keeps its record and blob.
   std::string data2 = fake_draco(43, 700);
   auto r3 = s.put_tile("m", 2, {3, -4}, data2, 99, 31, -39, 0, 39, -31, 2);
-  EXPECT_EQ(count_rows(path, "blobs"), 2);
+  EXPECT_EQ(count("blobs"), 2);
   EXPECT_EQ(s.find_tile("m", 1, {3, -4})->hash, r1.hash);
   EXPECT_EQ(s.find_tile("m", 2, {3, -4})->hash, r3.hash);
   EXPECT_EQ(s.find_tile("m", 2, {3, -4})->points, 99);
@@ -469,11 +479,11 @@ TEST_F(StoreTest, PutTileIsIdempotentAndBlobsAreShared) {
   s.put_tile("m", 2, {3, -4}, fake_draco(44, 600), 98, 31, -39, 0, 39, -31, 2);
   EXPECT_FALSE(s.has_blob(r3.hash));
   EXPECT_TRUE(s.has_blob(r1.hash));
-  EXPECT_EQ(count_rows(path, "blobs"), 2);
+  EXPECT_EQ(count("blobs"), 2);
   EXPECT_TRUE(s.integrity_ok());
 }
 
-TEST_F(StoreTest, DeleteTile) {
+TEST_P(StoreTest, DeleteTile) {
   Store s = Store::open(path);
   s.create_map("m", kOrigin, 10, 0.2);
   s.create_version("m", std::nullopt, "");
@@ -491,11 +501,13 @@ TEST_F(StoreTest, DeleteTile) {
   EXPECT_FALSE(s.has_blob(own.hash));  // nobody uses it any more
   EXPECT_TRUE(s.tiles_in_box("m", 2, -100, -100, 100, 100).empty());
   EXPECT_EQ(s.tiles_in_box("m", 1, -100, -100, 100, 100).size(), 1u);
-  EXPECT_EQ(count_rows(path, "tile_rtree"), count_rows(path, "tiles"));
+  if (sqlite()) {
+    EXPECT_EQ(count("tile_rtree"), count("tiles"));
+  }
   EXPECT_TRUE(s.integrity_ok());
 }
 
-TEST_F(StoreTest, PutTileValidatesItsInput) {
+TEST_P(StoreTest, PutTileValidatesItsInput) {
   Store s = Store::open(path);
   s.create_map("m", kOrigin, 10, 0.2);
   s.create_version("m", std::nullopt, "");
@@ -503,11 +515,11 @@ TEST_F(StoreTest, PutTileValidatesItsInput) {
   EXPECT_TRUE(contains(error_of([&] { s.put_tile("m", 1, {0, 0}, "x", -1, 0, 0, 0, 1, 1, 1); }), "negative"));
   EXPECT_TRUE(contains(error_of([&] { s.put_tile("m", 1, {0, 0}, "x", 1, 2, 0, 0, 1, 1, 1); }), "min > max"));
   EXPECT_TRUE(contains(error_of([&] { s.put_tile("m", 1, {0, 0}, "x", 1, 0, 0, 0, 1, NAN, 1); }), "finite"));
-  EXPECT_EQ(count_rows(path, "tiles"), 0);
-  EXPECT_EQ(count_rows(path, "blobs"), 0);
+  EXPECT_EQ(count("tiles"), 0);
+  EXPECT_EQ(count("blobs"), 0);
 }
 
-TEST_F(StoreTest, TilesInBoxMatchesABruteForceFilter) {
+TEST_P(StoreTest, TilesInBoxMatchesABruteForceFilter) {
   Store s = Store::open(path);
   s.create_map("m", kOrigin, 10, 0.2);
   s.create_map("other", kOrigin, 10, 0.2);
@@ -587,7 +599,7 @@ TEST_F(StoreTest, TilesInBoxMatchesABruteForceFilter) {
 
 // ---- tokens and the upload log -------------------------------------------------------------------
 
-TEST_F(StoreTest, TokensAreStoredHashed) {
+TEST_P(StoreTest, TokensAreStoredHashed) {
   const std::string reader = "rd-7f3a9c2e41b84d0f9a6e5c3b2a1d0e9f";
   const std::string uploader = "up-0a1b2c3d4e5f60718293a4b5c6d7e8f9";
   const std::string admin = "ad-ffeeddccbbaa99887766554433221100";
@@ -608,18 +620,26 @@ TEST_F(StoreTest, TokensAreStoredHashed) {
     EXPECT_EQ(s.check_token(reader), Role::Read);
     EXPECT_TRUE(contains(error_of([&] { s.add_token("", Role::Read, ""); }), "empty token"));
   }
-  // The file (and any WAL left) holds the hashes, never the tokens.
-  std::string bytes;
-  for (const char* suffix : {"", "-wal", "-shm"}) bytes += file_bytes(path + suffix);
-  for (const auto& t : {reader, uploader, admin}) {
-    EXPECT_FALSE(contains(bytes, t)) << t;
-    EXPECT_TRUE(contains(bytes, pl::store::content_hash(t))) << t;
+  if (sqlite()) {
+    // The file (and any WAL left) holds the hashes, never the tokens.
+    std::string bytes;
+    for (const char* suffix : {"", "-wal", "-shm"}) bytes += file_bytes(path + suffix);
+    for (const auto& t : {reader, uploader, admin}) {
+      EXPECT_FALSE(contains(bytes, t)) << t;
+      EXPECT_TRUE(contains(bytes, pl::store::content_hash(t))) << t;
+    }
+  } else {
+    // The database holds the hashes, never the tokens, in any column of any table.
+    for (const auto& t : {reader, uploader, admin}) {
+      EXPECT_EQ(raw_scalar("SELECT count(*) FROM tokens WHERE hash = '" + pl::store::content_hash(t) + "'"), 1) << t;
+      EXPECT_EQ(raw_scalar("SELECT count(*) FROM tokens AS k WHERE position('" + t + "' IN k::text) > 0"), 0) << t;
+    }
   }
   Store s = Store::open(path);
   EXPECT_EQ(s.check_token(admin), Role::Admin);
 }
 
-TEST_F(StoreTest, UploadLogIsAppendOnly) {
+TEST_P(StoreTest, UploadLogIsAppendOnly) {
   {
     Store s = Store::open(path);
     s.log_upload("city", 3, "upload", "120 tiles", "survey-car-1");
@@ -638,17 +658,16 @@ TEST_F(StoreTest, UploadLogIsAppendOnly) {
     EXPECT_LT(log[0].id, log[1].id);
     EXPECT_TRUE(contains(error_of([&] { s.log_upload("city", 1, "", "", ""); }), "action"));
   }
-  RawDb raw(path);
-  std::string msg = raw.exec("UPDATE upload_log SET who = 'mallory'");
+  std::string msg = raw_exec("UPDATE upload_log SET who = 'mallory'");
   EXPECT_TRUE(contains(msg, "append-only")) << msg;
-  msg = raw.exec("DELETE FROM upload_log WHERE map = 'city'");
+  msg = raw_exec("DELETE FROM upload_log WHERE map = 'city'");
   EXPECT_TRUE(contains(msg, "append-only")) << msg;
-  EXPECT_EQ(raw.scalar("SELECT count(*) FROM upload_log"), 3);
-  EXPECT_EQ(raw.scalar("SELECT count(*) FROM upload_log WHERE who = 'mallory'"), 0);
-  EXPECT_EQ(raw.exec("INSERT INTO upload_log (map, action) VALUES ('x', 'note')"), "");  // appending works
+  EXPECT_EQ(raw_scalar("SELECT count(*) FROM upload_log"), 3);
+  EXPECT_EQ(raw_scalar("SELECT count(*) FROM upload_log WHERE who = 'mallory'"), 0);
+  EXPECT_EQ(raw_exec("INSERT INTO upload_log (map, action) VALUES ('x', 'note')"), "");  // appending works
 }
 
-TEST_F(StoreTest, SchemaRefusesTileWritesToPublishedVersions) {
+TEST_P(StoreTest, SchemaRefusesTileWritesToPublishedVersions) {
   {
     Store s = Store::open(path);
     s.create_map("m", kOrigin, 10, 0.2);
@@ -656,22 +675,20 @@ TEST_F(StoreTest, SchemaRefusesTileWritesToPublishedVersions) {
     put_cell(s, "m", 1, 0, 0, 1);
     s.publish("m", 1);
   }
-  RawDb raw(path);
-  ASSERT_EQ(raw.exec("PRAGMA foreign_keys = ON"), "");
-  EXPECT_TRUE(contains(raw.exec("DELETE FROM tiles"), "staged"));
-  EXPECT_TRUE(contains(raw.exec("UPDATE tiles SET points = 0"), "staged"));
-  EXPECT_TRUE(contains(raw.exec("INSERT INTO tiles (map_id, version, tx, ty, hash, points, bytes, min_x, min_y, "
+  EXPECT_TRUE(contains(raw_exec("DELETE FROM tiles"), "staged"));
+  EXPECT_TRUE(contains(raw_exec("UPDATE tiles SET points = 0"), "staged"));
+  EXPECT_TRUE(contains(raw_exec("INSERT INTO tiles (map_id, version, tx, ty, hash, points, bytes, min_x, min_y, "
                                 "min_z, max_x, max_y, max_z) SELECT map_id, version, 5, 5, hash, 1, 1, 0, 0, 0, 1, "
                                 "1, 1 FROM tiles"),
                        "staged"));
-  EXPECT_NE(raw.exec("UPDATE versions SET state = 'staged'"), "");
-  EXPECT_NE(raw.exec("DELETE FROM blobs"), "");  // still used by a tile
-  EXPECT_EQ(raw.scalar("SELECT count(*) FROM tiles"), 1);
+  EXPECT_NE(raw_exec("UPDATE versions SET state = 'staged'"), "");
+  EXPECT_NE(raw_exec("DELETE FROM blobs"), "");  // still used by a tile
+  EXPECT_EQ(raw_scalar("SELECT count(*) FROM tiles"), 1);
 }
 
 // ---- places --------------------------------------------------------------------------------------
 
-TEST_F(StoreTest, PlacesArePutReadReplacedAndDeleted) {
+TEST_P(StoreTest, PlacesArePutReadReplacedAndDeleted) {
   Store s = Store::open(path);
   s.create_map("m", kOrigin, 10, 0.2);
   s.create_version("m", std::nullopt, "");
@@ -681,16 +698,15 @@ TEST_F(StoreTest, PlacesArePutReadReplacedAndDeleted) {
   s.put_places("m", 1, a);
   EXPECT_EQ(s.places("m", 1), a);  // byte for byte, NULs included
   EXPECT_EQ(s.places_hash("m", 1), pl::store::content_hash(a));
-  RawDb raw(path);
-  const std::int64_t id = raw.scalar("SELECT id FROM places");
-  EXPECT_EQ(raw.scalar("SELECT size FROM places"), 5004);
+  const std::int64_t id = raw_scalar("SELECT id FROM places");
+  EXPECT_EQ(raw_scalar("SELECT size FROM places"), 5004);
   s.put_places("m", 1, a);  // the same bytes again: nothing changes
   s.put_places("m", 1, b);  // other bytes replace them, in the same row
   EXPECT_EQ(s.places("m", 1), b);
   EXPECT_EQ(s.places_hash("m", 1), pl::store::content_hash(b));
-  EXPECT_EQ(raw.scalar("SELECT id FROM places"), id);
-  EXPECT_EQ(count_rows(path, "places"), 1);
-  EXPECT_EQ(count_rows(path, "blobs"), 0);  // places are not tile blobs
+  EXPECT_EQ(raw_scalar("SELECT id FROM places"), id);
+  EXPECT_EQ(count("places"), 1);
+  EXPECT_EQ(count("blobs"), 0);  // places are not tile blobs
   EXPECT_TRUE(s.integrity_ok());
 
   std::string msg = error_of([&] { s.put_places("m", 1, ""); });
@@ -703,11 +719,11 @@ TEST_F(StoreTest, PlacesArePutReadReplacedAndDeleted) {
   EXPECT_FALSE(s.delete_places("m", 1));  // already gone
   EXPECT_FALSE(s.places("m", 1));
   EXPECT_FALSE(s.places_hash("m", 1));
-  EXPECT_EQ(count_rows(path, "places"), 0);
+  EXPECT_EQ(count("places"), 0);
   EXPECT_TRUE(s.integrity_ok());
 }
 
-TEST_F(StoreTest, PlacesAreWrittenOnlyWhileStagedAndCopiedToAChildVersion) {
+TEST_P(StoreTest, PlacesAreWrittenOnlyWhileStagedAndCopiedToAChildVersion) {
   Store s = Store::open(path);
   s.create_map("m", kOrigin, 10, 0.2);
   s.create_version("m", std::nullopt, "");
@@ -740,24 +756,22 @@ TEST_F(StoreTest, PlacesAreWrittenOnlyWhileStagedAndCopiedToAChildVersion) {
   EXPECT_TRUE(s.integrity_ok());
 
   // The schema refuses other writers too.
-  RawDb raw(path);
-  ASSERT_EQ(raw.exec("PRAGMA foreign_keys = ON"), "");
-  EXPECT_TRUE(contains(raw.exec("UPDATE places SET size = size WHERE version = 1"), "staged"));
-  EXPECT_TRUE(contains(raw.exec("DELETE FROM places WHERE version = 2"), "staged"));
-  EXPECT_TRUE(contains(raw.exec("INSERT INTO places (map_id, version, hash, bytes, size) SELECT map_id, 1, hash, bytes, "
+  EXPECT_TRUE(contains(raw_exec("UPDATE places SET size = size WHERE version = 1"), "staged"));
+  EXPECT_TRUE(contains(raw_exec("DELETE FROM places WHERE version = 2"), "staged"));
+  EXPECT_TRUE(contains(raw_exec("INSERT INTO places (map_id, version, hash, bytes, size) SELECT map_id, 1, hash, bytes, "
                                 "size FROM places WHERE version = 2"),
                        "staged"));
   // Version 3 is staged: the CHECK constraints still hold.
   const std::string nul_hash = pl::store::content_hash(std::string(1, '\0'));
-  EXPECT_NE(raw.exec("INSERT INTO places (map_id, version, hash, bytes, size) VALUES (1, 3, 'x', x'00', 1)"), "");
-  EXPECT_NE(raw.exec("INSERT INTO places (map_id, version, hash, bytes, size) VALUES (1, 3, '" + nul_hash + "', x'00', 2)"), "");
-  EXPECT_NE(raw.exec("INSERT INTO places (map_id, version, hash, bytes, size) VALUES (1, 3, '" + nul_hash + "', x'', 0)"), "");
-  EXPECT_EQ(raw.scalar("SELECT count(*) FROM places"), 2);
+  EXPECT_NE(raw_exec("INSERT INTO places (map_id, version, hash, bytes, size) VALUES (1, 3, 'x', " + bytes_literal("00") + ", 1)"), "");
+  EXPECT_NE(raw_exec("INSERT INTO places (map_id, version, hash, bytes, size) VALUES (1, 3, '" + nul_hash + "', " + bytes_literal("00") + ", 2)"), "");
+  EXPECT_NE(raw_exec("INSERT INTO places (map_id, version, hash, bytes, size) VALUES (1, 3, '" + nul_hash + "', " + bytes_literal("") + ", 0)"), "");
+  EXPECT_EQ(raw_scalar("SELECT count(*) FROM places"), 2);
 }
 
 // ---- transactions and maintenance ----------------------------------------------------------------
 
-TEST_F(StoreTest, TransactionCommitsAndRollsBackOnDestruction) {
+TEST_P(StoreTest, TransactionCommitsAndRollsBackOnDestruction) {
   Store s = Store::open(path);
   s.create_map("m", kOrigin, 10, 0.2);
   s.create_version("m", std::nullopt, "");
@@ -778,7 +792,7 @@ TEST_F(StoreTest, TransactionCommitsAndRollsBackOnDestruction) {
   EXPECT_EQ(s.list_tiles("m", 1).size(), 50u);
   EXPECT_FALSE(s.find_map("n"));
   EXPECT_FALSE(s.find_map("m")->current);
-  EXPECT_EQ(count_rows(path, "blobs"), 50);
+  EXPECT_EQ(count("blobs"), 50);
 
   // An exception leaves the scope: rolled back too.
   try {
@@ -791,7 +805,7 @@ TEST_F(StoreTest, TransactionCommitsAndRollsBackOnDestruction) {
   EXPECT_TRUE(s.integrity_ok());
 }
 
-TEST_F(StoreTest, AFailedCallInsideATransactionUndoesOnlyItself) {
+TEST_P(StoreTest, AFailedCallInsideATransactionUndoesOnlyItself) {
   Store s = Store::open(path);
   s.create_map("m", kOrigin, 10, 0.2);
   s.create_version("m", std::nullopt, "");
@@ -816,10 +830,10 @@ TEST_F(StoreTest, AFailedCallInsideATransactionUndoesOnlyItself) {
   EXPECT_TRUE(s.find_tile("m", 2, {0, 0}));
   EXPECT_FALSE(s.find_tile("m", 2, {1, 0}));
   EXPECT_TRUE(s.find_tile("m", 2, {2, 0}));
-  EXPECT_EQ(count_rows(path, "blobs"), 2);
+  EXPECT_EQ(count("blobs"), 2);
 }
 
-TEST_F(StoreTest, IntegrityAndSize) {
+TEST_P(StoreTest, IntegrityAndSize) {
   Store s = Store::open(path);
   EXPECT_TRUE(s.integrity_ok());
   std::int64_t empty = s.database_bytes();
@@ -840,10 +854,14 @@ TEST_F(StoreTest, IntegrityAndSize) {
   EXPECT_GE(s.database_bytes(), empty + 18 * 50000);
   EXPECT_TRUE(s.integrity_ok());
 
-  // Tampering with the R*Tree behind the store's back is noticed.
-  {
-    RawDb raw(path);
-    ASSERT_EQ(raw.exec("DELETE FROM tile_rtree WHERE id = (SELECT max(id) FROM tiles)"), "");
+  if (sqlite()) {
+    // Tampering with the R*Tree behind the store's back is noticed.
+    ASSERT_EQ(raw_exec("DELETE FROM tile_rtree WHERE id = (SELECT max(id) FROM tiles)"), "");
+  } else {
+    // Bytes of a blob edited behind the store's back (the same length: the CHECK on size holds).
+    ASSERT_EQ(raw_exec("UPDATE blobs SET bytes = decode(repeat('00', size::int), 'hex') "
+                       "WHERE hash = (SELECT min(hash) FROM blobs)"),
+              "");
   }
   EXPECT_FALSE(s.integrity_ok());
 }
@@ -925,7 +943,7 @@ std::int64_t root_page_offset(const std::string& path, const std::string& name) 
          raw.scalar("PRAGMA page_size");
 }
 
-TEST_F(StoreTest, TruncatedFileIsRefusedAsDamagedAndLeftAsItWas) {
+TEST_F(SqliteStoreTest, TruncatedFileIsRefusedAsDamagedAndLeftAsItWas) {
   make_sample_store(path);
   const std::string whole = file_bytes(path);
   for (std::size_t keep : {whole.size() / 2, whole.size() - 4096, std::size_t{4096 + 100}}) {
@@ -939,7 +957,7 @@ TEST_F(StoreTest, TruncatedFileIsRefusedAsDamagedAndLeftAsItWas) {
   EXPECT_NO_THROW(read_like_the_server(path));
 }
 
-TEST_F(StoreTest, DamagedPageIsRefusedAsDamagedAndLeftAsItWas) {
+TEST_F(SqliteStoreTest, DamagedPageIsRefusedAsDamagedAndLeftAsItWas) {
   make_sample_store(path);
   overwrite(path, root_page_offset(path, "tiles"), 8, '\xee');  // not a b-tree page any more
   const std::string damaged = file_bytes(path);
@@ -950,7 +968,7 @@ TEST_F(StoreTest, DamagedPageIsRefusedAsDamagedAndLeftAsItWas) {
   EXPECT_FALSE(s.integrity_ok());
 }
 
-TEST_F(StoreTest, UnreadableHeaderIsRefusedAsDamaged) {
+TEST_F(SqliteStoreTest, UnreadableHeaderIsRefusedAsDamaged) {
   make_sample_store(path);
   overwrite(path, 44, 4, '\x09');  // the schema format number: 1 to 4 are the ones SQLite writes
   const std::string damaged = file_bytes(path);
@@ -958,7 +976,7 @@ TEST_F(StoreTest, UnreadableHeaderIsRefusedAsDamaged) {
   EXPECT_EQ(file_bytes(path), damaged);
 }
 
-TEST_F(StoreTest, HeaderThatOnlyLetsSqliteReadIsRefusedAsDamaged) {
+TEST_F(SqliteStoreTest, HeaderThatOnlyLetsSqliteReadIsRefusedAsDamaged) {
   make_sample_store(path);
   overwrite(path, 18, 1, '\x42');  // the write version: SQLite writes 1 (legacy) or 2 (WAL)
   const std::string damaged = file_bytes(path);
@@ -967,7 +985,7 @@ TEST_F(StoreTest, HeaderThatOnlyLetsSqliteReadIsRefusedAsDamaged) {
   EXPECT_EQ(file_bytes(path), damaged);
 }
 
-TEST_F(StoreTest, StoreToSwitchToWalIsCheckedWholeFirst) {
+TEST_F(SqliteStoreTest, StoreToSwitchToWalIsCheckedWholeFirst) {
   make_sample_store(path);
   { RawDb(path).exec("PRAGMA journal_mode = DELETE"); }
   // Damage a page that opening does not read: only a check of the whole file finds it.
@@ -980,7 +998,7 @@ TEST_F(StoreTest, StoreToSwitchToWalIsCheckedWholeFirst) {
   EXPECT_EQ(file_bytes(path), damaged);
 }
 
-TEST_F(StoreTest, EmptyFileIsNotAStoreWithoutCreate) {
+TEST_F(SqliteStoreTest, EmptyFileIsNotAStoreWithoutCreate) {
   pl::test::write_file(path, "");
   std::string msg = error_of([&] { Store::open(path, false); });
   EXPECT_TRUE(contains(msg, path)) << msg;
@@ -991,7 +1009,7 @@ TEST_F(StoreTest, EmptyFileIsNotAStoreWithoutCreate) {
   EXPECT_EQ(s.schema_version(), Store::latest_schema_version());
 }
 
-TEST_F(StoreTest, CraftedSchemaIsRefusedBeforeAnyOfItRuns) {
+TEST_F(SqliteStoreTest, CraftedSchemaIsRefusedBeforeAnyOfItRuns) {
   struct Case {
     const char* sql;
     const char* detail;
@@ -1025,7 +1043,7 @@ TEST_F(StoreTest, CraftedSchemaIsRefusedBeforeAnyOfItRuns) {
   }
 }
 
-TEST_F(StoreTest, ValuesThatBreakTheSchemasPromisesAreRefused) {
+TEST_F(SqliteStoreTest, ValuesThatBreakTheSchemasPromisesAreRefused) {
   struct Case {
     std::string sql;
     std::function<void(Store&)> read;
@@ -1091,7 +1109,7 @@ TEST_F(StoreTest, ValuesThatBreakTheSchemasPromisesAreRefused) {
   EXPECT_FALSE(Store::open(path, false).integrity_ok());
 }
 
-TEST_F(StoreTest, NullInANotNullColumnIsRefused) {
+TEST_F(SqliteStoreTest, NullInANotNullColumnIsRefused) {
   // A NULL where the schema says NOT NULL: SQLite only checks NOT NULL on writes, so a crafted file
   // (written with the constraint edited out, then put back) may hold one.
   make_sample_store(path);
@@ -1172,7 +1190,7 @@ void declare_huge_blob(const std::string& path, std::uint64_t declared) {
   pl::test::write_file(path, file);
 }
 
-TEST_F(StoreTest, BlobThatDeclaresGigabytesIsRefusedAsDamaged) {
+TEST_F(SqliteStoreTest, BlobThatDeclaresGigabytesIsRefusedAsDamaged) {
   // 600 MB: more than the store's limit (256 MiB), less than SQLite's own (1e9 bytes); 3 GB: more
   // than either.
   for (std::uint64_t declared : {std::uint64_t{600} << 20, std::uint64_t{3} << 30}) {
@@ -1191,6 +1209,189 @@ TEST_F(StoreTest, BlobThatDeclaresGigabytesIsRefusedAsDamaged) {
     expect_damaged(error_of([&] { s.blob(hash); }), path, "string or blob too big");
     EXPECT_EQ(file_bytes(path), crafted);
   }
+}
+
+// ---- PostgreSQL only ------------------------------------------------------------------------------
+// What only a PostgreSQL database has: its own migrations table, other applications' tables in the
+// same database, URLs with passwords, SQL edits through a second connection.
+
+class PgStoreTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    try {
+      url = pl::test::PgCluster::get().new_database();
+    } catch (const std::exception& e) {
+      FAIL() << e.what();  // never skipped: the message says to install PostgreSQL
+    }
+  }
+  std::int64_t objects() const {
+    return pl::test::pg_scalar(url, "SELECT count(*) FROM pg_class WHERE relnamespace = 'public'::regnamespace");
+  }
+  std::string url;
+};
+
+TEST_F(PgStoreTest, RefusesANewerSchema) {
+  { Store s = Store::open(url); }
+  const std::string future = std::to_string(Store::latest_schema_version() + 1);
+  ASSERT_EQ(pl::test::pg_exec(url, "INSERT INTO schema_migrations (number, name) VALUES (" + future + ", 'future')"), "");
+  std::string msg = error_of([&] { Store::open(url); });
+  EXPECT_TRUE(contains(msg, url)) << msg;
+  EXPECT_TRUE(contains(msg, "newer")) << msg;
+  EXPECT_TRUE(contains(msg, "upgrade")) << msg;
+  EXPECT_EQ(pl::test::pg_scalar(url, "SELECT max(number) FROM schema_migrations"), Store::latest_schema_version() + 1);
+}
+
+TEST_F(PgStoreTest, RefusesAnotherApplicationsDatabase) {
+  ASSERT_EQ(pl::test::pg_exec(url, "CREATE TABLE notes (id integer PRIMARY KEY, body text)"), "");
+  const std::int64_t before = objects();
+  for (bool create : {false, true}) {
+    std::string msg = error_of([&] { Store::open(url, create); });
+    EXPECT_TRUE(contains(msg, url)) << msg;
+    EXPECT_TRUE(contains(msg, "not a map store")) << msg;
+  }
+  // Someone else's schema_migrations (a web framework's) is not the store's either.
+  EXPECT_EQ(objects(), before);  // nothing written
+  ASSERT_EQ(pl::test::pg_exec(url, "DROP TABLE notes; CREATE TABLE schema_migrations (version text)"), "");
+  EXPECT_TRUE(contains(error_of([&] { Store::open(url, true); }), "not a map store"));
+  EXPECT_EQ(objects(), 1);
+}
+
+TEST_F(PgStoreTest, EmptyDatabaseIsNotAStoreWithoutCreate) {
+  std::string msg = error_of([&] { Store::open(url, false); });
+  EXPECT_TRUE(contains(msg, url)) << msg;
+  EXPECT_TRUE(contains(msg, "empty")) << msg;
+  EXPECT_TRUE(contains(msg, "pl-map")) << msg;
+  EXPECT_EQ(objects(), 0);
+  Store s = Store::open(url, true);  // pl-map makes a store of it
+  EXPECT_EQ(s.schema_version(), Store::latest_schema_version());
+}
+
+TEST_F(PgStoreTest, MissingDatabaseOrServerIsAnErrorNamingIt) {
+  const std::string missing = pl::test::PgCluster::get().url("no_such_database");
+  std::string msg = error_of([&] { Store::open(missing, false); });
+  EXPECT_TRUE(contains(msg, missing + ": cannot connect")) << msg;
+  EXPECT_TRUE(contains(msg, "no_such_database")) << msg;
+  const std::string no_server = "postgresql://nobody@127.0.0.1:1/db";
+  msg = error_of([&] { Store::open(no_server, true); });
+  EXPECT_TRUE(contains(msg, no_server + ": cannot connect")) << msg;
+}
+
+TEST_F(PgStoreTest, PasswordsNeverShowInMessages) {
+  // The cluster trusts local connections, so a password in the URL is accepted and ignored.
+  const std::string secret = "hunter2-5ecret";
+  std::string with_password = url;
+  with_password.replace(with_password.find('@'), 1, ":" + secret + "@");
+  Store s = Store::open(with_password);
+  EXPECT_FALSE(contains(s.path(), secret)) << s.path();
+  EXPECT_TRUE(contains(s.path(), ":***@")) << s.path();
+  std::string msg = error_of([&] { s.create_version("ghost", std::nullopt, ""); });
+  EXPECT_FALSE(contains(msg, secret)) << msg;
+  EXPECT_TRUE(contains(msg, "unknown map ghost")) << msg;
+  msg = error_of([&] { Store::open(with_password + "_missing", false); });
+  EXPECT_FALSE(contains(msg, secret)) << msg;
+  const std::string in_query = url + "?sslmode=disable&password=" + secret;
+  Store q = Store::open(in_query);
+  EXPECT_FALSE(contains(q.path(), secret)) << q.path();
+  EXPECT_TRUE(contains(q.path(), "password=***")) << q.path();
+}
+
+TEST_F(PgStoreTest, BytesEditedInTheDatabaseAreRefusedAsDamaged) {
+  make_sample_store(url);
+  Store s = Store::open(url, false);
+  EXPECT_TRUE(s.integrity_ok());
+  const std::string hash = s.list_tiles("town", 1).front().hash;
+  // Same length (the CHECK on size holds), other bytes: only the hash can tell.
+  ASSERT_EQ(pl::test::pg_exec(url, "UPDATE blobs SET bytes = decode(repeat('00', size::int), 'hex') WHERE hash = '" +
+                                       hash + "'"),
+            "");
+  expect_damaged(error_of([&] { s.blob(hash); }), url, "of blob " + hash + " do not match its content hash");
+  EXPECT_FALSE(s.integrity_ok());
+  EXPECT_TRUE(s.find_tile("town", 1, {0, 0}));  // the rows are still read
+  // Places of the staged version 2 (the triggers keep those of version 1, published, read-only).
+  ASSERT_EQ(pl::test::pg_exec(url, "UPDATE places SET bytes = decode(repeat('00', size::int), 'hex') WHERE version = 2"),
+            "");
+  expect_damaged(error_of([&] { s.places("town", 2); }), url,
+                 "places.bytes of map town version 2 do not match their content hash");
+  EXPECT_TRUE(s.places("town", 1));
+  EXPECT_TRUE(contains(pl::test::pg_exec(url, "UPDATE places SET bytes = bytes WHERE version = 1"), "staged"));
+}
+
+TEST_F(PgStoreTest, ACurrentVersionThatIsNotPublishedIsDamage) {
+  make_sample_store(url);
+  // Only with the triggers off (a restore gone wrong, a hand edit).
+  ASSERT_EQ(pl::test::pg_exec(url, "ALTER TABLE maps DISABLE TRIGGER USER; UPDATE maps SET current_version = 2; "
+                                   "ALTER TABLE maps ENABLE TRIGGER USER"),
+            "");
+  Store s = Store::open(url, false);
+  expect_damaged(error_of([&] { s.find_map("town"); }), url, "current_version 2 is not a published");
+  EXPECT_FALSE(s.integrity_ok());
+}
+
+TEST_F(PgStoreTest, UploadLogCannotBeUpdatedDeletedOrTruncated) {
+  {
+    Store s = Store::open(url);
+    s.log_upload("city", 1, "upload", "", "ops");
+  }
+  for (const char* sql : {"UPDATE upload_log SET who = 'mallory'", "DELETE FROM upload_log", "TRUNCATE upload_log"}) {
+    std::string msg = pl::test::pg_exec(url, sql);
+    EXPECT_TRUE(contains(msg, "append-only")) << sql << ": " << msg;
+  }
+  EXPECT_EQ(pl::test::pg_scalar(url, "SELECT count(*) FROM upload_log WHERE who = 'ops'"), 1);
+}
+
+TEST_F(PgStoreTest, MigratesASchema1DatabaseOnOpen) {
+  // A store as a build of schema version 1 left it: migration pg/001 alone, then a map with one
+  // published version and one tile, written with SQL directly.
+  const std::string schema_1 = pl::test::read_file(std::string(PL_SOURCE_DIR) + "/schema/pg/001_initial.sql");
+  ASSERT_NE(schema_1.find("CREATE TABLE tiles"), std::string::npos);
+  const std::string hash = pl::store::content_hash("abc");
+  ASSERT_EQ(pl::test::pg_exec(url, "BEGIN; " + schema_1 +
+                                       "\nINSERT INTO schema_migrations (number, name) VALUES (1, '001_initial.sql'); "
+                                       "COMMIT;"),
+            "");
+  ASSERT_EQ(pl::test::pg_exec(url,
+                              "INSERT INTO maps (name, origin_lat, origin_lon, origin_alt, tile_size, voxel_size) "
+                              "VALUES ('old', 48.1, 11.5, 519, 10, 0.2); "
+                              "INSERT INTO versions (map_id, number, note) VALUES (1, 1, 'made at schema 1'); "
+                              "INSERT INTO blobs (hash, bytes, size) VALUES ('" + hash + "', 'abc'::bytea, 3); "
+                              "INSERT INTO tiles (map_id, version, tx, ty, hash, points, bytes, min_x, min_y, min_z, "
+                              "max_x, max_y, max_z) VALUES (1, 1, 0, 0, '" + hash + "', 5, 3, 1, 1, 0, 9, 9, 1); "
+                              "UPDATE versions SET state = 'published' WHERE number = 1; "
+                              "UPDATE maps SET current_version = 1;"),
+            "");
+  ASSERT_EQ(pl::test::pg_scalar(url, "SELECT count(*) FROM pg_tables WHERE tablename = 'places'"), 0);
+  {
+    Store s = Store::open(url, /*create=*/false);
+    EXPECT_EQ(s.schema_version(), 2);
+    EXPECT_EQ(s.find_map("old")->current, 1);
+    EXPECT_EQ(s.find_version("old", 1)->note, "made at schema 1");
+    EXPECT_EQ(s.blob(hash), "abc");
+    EXPECT_FALSE(s.places("old", 1));
+    EXPECT_TRUE(s.integrity_ok());
+    EXPECT_EQ(s.create_version("old", std::nullopt, "").tiles, 1);
+    s.put_places("old", 2, "descriptors");
+    EXPECT_EQ(s.places("old", 2), "descriptors");
+  }
+  EXPECT_EQ(pl::test::pg_scalar(url, "SELECT max(number) FROM schema_migrations"), 2);
+  Store again = Store::open(url, false);
+  EXPECT_EQ(again.places("old", 2), "descriptors");
+}
+
+TEST_F(PgStoreTest, FreeTextMustBeUtf8WithoutNul) {
+  Store s = Store::open(url);
+  s.create_map("m", kOrigin, 10, 0.2);
+  for (const std::string& bad : {std::string("caf\xe9"), std::string("a\0b", 3), std::string("\xed\xa0\x80")}) {
+    std::string msg = error_of([&] { s.create_version("m", std::nullopt, bad); });
+    EXPECT_TRUE(contains(msg, "UTF-8")) << msg;
+    EXPECT_TRUE(contains(error_of([&] { s.log_upload("m", 1, "a", bad, ""); }), "UTF-8"));
+    EXPECT_TRUE(s.upload_log(bad).empty());
+  }
+  EXPECT_TRUE(s.list_versions("m").empty());
+  // UTF-8 itself goes in and out byte for byte.
+  const std::string text = "Stra\xc3\x9f" "e \xe2\x86\x92 \xf0\x9f\x97\xba 'quoted' \\x00";
+  EXPECT_EQ(s.create_version("m", std::nullopt, text).note, text);
+  s.log_upload("m", 1, "note", text, text);
+  EXPECT_EQ(s.upload_log("m").at(0).detail, text);
 }
 
 }  // namespace

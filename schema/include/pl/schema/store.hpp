@@ -3,10 +3,14 @@
 // postgresql:// URL: schema/pg/NNN_*.sql, the same tables and rules in PostgreSQL's dialect). Both
 // keep every promise below. A Store is one connection: open one per thread.
 //
-// Semantics (the schema is in schema/001_initial.sql and 002_places.sql):
-// - Every error (SQLite's included) is a pl::Error whose message starts with the database path.
-// - Several connections (threads or processes) may use one file: WAL lets readers run next to one
-//   writer; writers take the write lock up front (BEGIN IMMEDIATE) and wait up to 5 s for it.
+// Semantics (the schema is in schema/NNN_*.sql, and schema/pg/NNN_*.sql for PostgreSQL):
+// - Every error (the engine's included) is a pl::Error whose message starts with the database path
+//   (PATH below: the file, or the URL with its password as ***).
+// - Several connections (threads or processes) may use one store. SQLite: WAL lets readers run
+//   next to one writer; writers take the write lock up front (BEGIN IMMEDIATE) and wait up to 5 s
+//   for it. PostgreSQL: readers never wait; writers to one map take turns (a row lock on the map),
+//   writers to different maps run at once. PostgreSQL text (notes, the upload log) must be UTF-8
+//   without NUL bytes (an error says so); SQLite keeps any bytes.
 // - Unknown maps: the reading calls (find_*, list_*, tiles_in_box, places, places_hash,
 //   upload_log) return nothing (std::nullopt or an empty list); the writing calls (create_version,
 //   publish, rollback, put_tile, delete_tile, put_places, delete_places) throw pl::Error "PATH:
@@ -93,7 +97,8 @@ class Store {
   // `create` a missing or empty file, or a database without the store's tables, is an error.
   // Migrations run in one transaction each.
   static Store open(const std::string& db, bool create = true);
-  // The newest schema version (PRAGMA user_version) this build can migrate to.
+  // The newest schema version (SQLite: PRAGMA user_version; PostgreSQL: the schema_migrations
+  // table) this build can migrate to; both engines have the same number of migrations.
   static int latest_schema_version();
   Store(Store&&) noexcept;
   Store& operator=(Store&&) noexcept;
@@ -178,8 +183,8 @@ class Store {
   std::vector<LogEntry> upload_log(const std::string& map) const;
 
   // Groups writes into one transaction (imports of thousands of tiles); rolls back unless committed.
-  // Takes the write lock at once (BEGIN IMMEDIATE); inside another open Transaction it is a
-  // savepoint. Each Store call inside it is all-or-nothing on its own (a failed put_tile leaves the
+  // SQLite takes the write lock at once (BEGIN IMMEDIATE), PostgreSQL each map's row lock as calls
+  // reach it; inside another open Transaction it is a savepoint. Each Store call inside it is all-or-nothing on its own (a failed put_tile leaves the
   // Transaction's earlier writes in place).
   class Transaction {
    public:
