@@ -153,7 +153,7 @@ int main(int argc, char** argv) {
   bool realtime = false;
   pl::DatasetOptions topics;
   cli::dataset_option(app, dataset, topics, "the drive to localize");
-  auto* server_opt = app.add_option("--server", server, "pl-server's address (http://HOST:PORT)")->type_name("URL");
+  auto* server_opt = app.add_option("--server", server, "pl-server's address: https://HOST[:PORT] (http:// to this machine, or with --insecure-http)")->type_name("URL");
   auto* db_opt = app.add_option("--db", db, "a local map store instead of a server")->type_name("FILE");
   server_opt->excludes(db_opt);
   app.add_option("--map", cfg.tiles.map, "the map's name (pl-map list)")->required();
@@ -208,6 +208,8 @@ int main(int argc, char** argv) {
   cli::output_file(app, "--cache", cfg.tiles.cache_path, "the tile client's disk cache (SQLite)");
   cli::number(app, "--cache-mb", cfg.tiles.memory_mb, "decoded tiles kept in memory, MiB", cli::above(0));
   app.add_option("--token", cfg.tiles.token, "bearer token when the server requires one for reads");
+  app.add_option("--ca-file", cfg.tiles.ca_file, "https: PEM file of the CA the server's certificate must chain to (default: the system's)")->type_name("FILE");
+  app.add_flag("--insecure-http", cfg.tiles.insecure_http, "allow plain http:// to another machine (the map and the token in clear)");
   app.add_flag("--realtime", realtime, "pace the replay at the drive's clock");
   // Every other setting by name (pl/client/config_fields.hpp, the table a ROS node's parameters use).
   std::vector<std::string> settings;

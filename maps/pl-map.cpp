@@ -25,11 +25,13 @@ namespace maps = pl::maps;
 // --db FILE of an existing store, or (`create`) of one that may be created.
 CLI::Option* db_option(CLI::App& c, std::string& db, bool create) {
   auto check = [create](std::string& path) -> std::string {
-    if (pl::file_exists(path)) return "";
+    if (pl::store::is_postgres_url(path) || pl::file_exists(path)) return "";
     return create ? pl::output_file_problem(path) : path + ": no such map store (create one with pl-map tile)";
   };
-  return c.add_option("--db", db, create ? "the SQLite map store (created when missing)" : "the SQLite map store")
-      ->required()->type_name("FILE")->check(CLI::Validator(check, ""));
+  return c.add_option("--db", db,
+                      create ? "the map store: a SQLite file (created when missing) or a postgresql://USER@HOST/DB URL"
+                             : "the map store: a SQLite file or a postgresql://USER@HOST/DB URL")
+      ->required()->type_name("FILE|URL")->check(CLI::Validator(check, ""));
 }
 
 void add_build(Tool& tool) {
@@ -189,6 +191,8 @@ void add_push(Tool& tool) {
   pl::cli::number(c, "--version", o->version, "the local version to push", pl::cli::at_least(1))->required()->default_str("");
   c.add_option("--server", o->server, "the server, e.g. http://127.0.0.1:8080")->required()->type_name("URL");
   c.add_option("--token", o->token, "a token of the upload role (admin to create the map there)")->required();
+  c.add_option("--ca-file", o->ca_file, "https: PEM file of the CA the server's certificate must chain to (default: the system's)")->type_name("FILE");
+  c.add_flag("--insecure-http", o->insecure_http, "allow plain http:// to another machine (the token crosses the network in clear)");
 }
 
 }  // namespace

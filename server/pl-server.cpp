@@ -54,12 +54,19 @@ int main(int argc, char** argv) {
   cfg.threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::size_t cache_mb = cfg.api.blob_cache_bytes >> 20;
   bool quiet = !cfg.access_log;
-  app.add_option("--db", cfg.api.db, "the map store written by pl-map")->required()->type_name("FILE");
+  app.add_option("--db", cfg.api.db, "the map store written by pl-map: a SQLite file or a postgresql://USER@HOST/DB URL")
+      ->required()
+      ->type_name("FILE|URL");
   app.add_option("--listen", listen, "address or host name to listen on (127.0.0.1:8080, localhost:8080, [::1]:8080, "
                  "0.0.0.0:8080); port 0 picks a free one (printed at start)")->type_name("HOST:PORT")->capture_default_str();
   pl::cli::number(app, "--threads", cfg.threads, "worker threads (default: the cores)", pl::cli::between(1, 256))->default_str("");
   app.add_option("--tokens", tokens, "lines of \"ROLE TOKEN\" (read, upload or admin) added to the store, hashed")->type_name("FILE");
   app.add_flag("--read-token-required", cfg.api.read_token_required, "reading maps needs a token too");
+  app.add_flag("--plain-uploads", cfg.api.plain_uploads,
+               "take uploads over plain HTTP from other machines too (a TLS proxy on another machine forwards them); default: only from this machine");
+  pl::cli::number(app, "--upload-rate", cfg.api.upload_rate, "uploads a second each token may send on average (429 beyond; 0: no limit)",
+                  pl::cli::between(0, 1e9));
+  pl::cli::number(app, "--upload-burst", cfg.api.upload_burst, "... and at once", pl::cli::between(1, 1e9));
   pl::cli::number(app, "--cache-mb", cache_mb, "memory for tiles served often, MB", pl::cli::between(0, 1 << 20));
   app.add_flag("--quiet", quiet, "no access log");
   app.footer("SIGTERM or SIGINT: stop accepting, finish the requests in flight (10 s at most), exit 0.");
@@ -68,7 +75,7 @@ int main(int argc, char** argv) {
     parse_listen(listen, cfg);
     cfg.api.blob_cache_bytes = cache_mb << 20;
     cfg.access_log = !quiet;
-    if (!pl::file_exists(cfg.api.db)) throw pl::Error(cfg.api.db + ": no such map store (create one with pl-map tile)");
+    if (!pl::store::is_postgres_url(cfg.api.db) && !pl::file_exists(cfg.api.db)) throw pl::Error(cfg.api.db + ": no such map store (create one with pl-map tile)");
     if (!tokens.empty()) add_tokens(cfg.api.db, tokens);
     pl::server::Server server(cfg);
     std::string where;

@@ -32,7 +32,7 @@ PL_MEMBERS(PlaceConfig, 3);
 PL_MEMBERS(LidarOdometryConfig, 9);
 PL_MEMBERS(LocalizerConfig, 15);
 PL_MEMBERS(registration::PoseSearch, 7);
-PL_MEMBERS(TileClientConfig, 10);
+PL_MEMBERS(TileClientConfig, 12);
 PL_MEMBERS(VehicleLocalizerConfig, 14);
 #undef PL_MEMBERS
 
@@ -201,7 +201,7 @@ void add(Table t, registration::PoseSearch& c) {
 }
 
 void add(Table t, TileClientConfig& c) {
-  FIELD(server, "pl-server's address, http://HOST:PORT");
+  FIELD(server, "pl-server's address, https://HOST[:PORT] (http:// to this machine, or with insecure_http)");
   FIELD(map, "the map's name");
   // version (std::optional<long long>) is left out: see config_fields.hpp.
   FIELD(cache_path, "the tile client's SQLite disk cache; empty: none");
@@ -211,6 +211,8 @@ void add(Table t, TileClientConfig& c) {
   FIELD(retry_min_s, "backoff while the server is down or erring: from this, s");
   FIELD(retry_max_s, "... doubling up to this, s");
   FIELD(token, "bearer token when the server requires one for reads");
+  FIELD(ca_file, "https: PEM file of the CA the server's certificate must chain to; empty: the system's CAs");
+  FIELD(insecure_http, "allow plain http:// to another machine (the map and the token cross the network in clear)");
 }
 
 void add(Table t, VehicleLocalizerConfig& c) {

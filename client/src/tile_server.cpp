@@ -10,8 +10,18 @@
 
 namespace pl::client {
 
+namespace {
+api::HttpOptions http_options(const TileClientConfig& cfg, double timeout_s) {
+  api::HttpOptions o;
+  o.timeout_s = timeout_s;
+  o.ca_file = cfg.ca_file;
+  o.insecure_http = cfg.insecure_http;
+  return o;
+}
+}  // namespace
+
 TileServer::TileServer(const TileClientConfig& cfg, ClientStatus& status)
-    : cfg_(cfg), status_(status), http_(cfg.server, cfg.timeout_s), backoff_(cfg.retry_min_s, cfg.retry_max_s) {
+    : cfg_(cfg), status_(status), http_(cfg.server, http_options(cfg, cfg.timeout_s)), backoff_(cfg.retry_min_s, cfg.retry_max_s) {
   if (!cfg_.token.empty()) headers_["Authorization"] = "Bearer " + cfg_.token;
 }
 
@@ -104,7 +114,9 @@ std::optional<std::string> fetch_places(const TileClientConfig& cfg, long long v
   if (!cfg.token.empty()) headers["Authorization"] = "Bearer " + cfg.token;
   api::HttpResponse res;
   try {
-    api::HttpClient http(cfg.server, timeout_s, api::kMaxPlacesBytes);
+    api::HttpOptions o = http_options(cfg, timeout_s);
+    o.max_body_bytes = api::kMaxPlacesBytes;
+    api::HttpClient http(cfg.server, o);
     res = http.get("/v1/maps/" + api::url_encode(cfg.map) + "/versions/" + std::to_string(version) + "/places", headers);
   } catch (const std::exception& e) {
     throw Error("cannot reach pl-server for " + about + " within " + seconds(timeout_s) + " (" + e.what() +

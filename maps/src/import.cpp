@@ -34,6 +34,7 @@ struct EncodedTile {
 enum class DbFile { Missing, Empty, Store };
 
 DbFile db_file(const std::string& db) {
+  if (store::is_postgres_url(db)) return DbFile::Store;  // a database exists before it is named; an empty one is migrated at open
   std::error_code ec;
   if (!fs::exists(db, ec)) return DbFile::Missing;
   return fs::is_regular_file(db, ec) && fs::file_size(db, ec) == 0 ? DbFile::Empty : DbFile::Store;
@@ -66,7 +67,7 @@ ImportResult import_cloud(const std::string& db, const std::string& name, const 
   std::optional<store::Store> store;
   std::optional<store::MapInfo> existing;
   if (before == DbFile::Store) {
-    store.emplace(store::Store::open(db, false));
+    store.emplace(store::Store::open(db, store::is_postgres_url(db)));
     existing = store->find_map(name);
   } else {
     check_output_file(db);  // the store is created at the end, when everything else is done

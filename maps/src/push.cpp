@@ -1,7 +1,10 @@
 #include "pl/maps/push.hpp"
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <map>
+#include <thread>
 #include <nlohmann/json.hpp>
 
 #include "pl/schema/http_client.hpp"
@@ -34,7 +37,26 @@ PushReport push_version(const PushOptions& o) {
   if (!version) throw Error(o.db + ": map " + o.map + " has no version " + std::to_string(o.version));
   auto tiles = store.list_tiles(o.map, o.version);
 
-  api::HttpClient http(o.server, 60.0);
+  api::HttpOptions http_options;
+  http_options.timeout_s = 60.0;
+  http_options.ca_file = o.ca_file;
+  http_options.insecure_http = o.insecure_http;
+  api::HttpClient http(o.server, http_options);
+  // The server limits each token's uploads a second (429 with Retry-After): wait as it says and
+  // send again, a bounded number of times.
+  auto send = [&](const std::string& method, const std::string& target, const std::string& body,
+                  const std::map<std::string, std::string>& headers) {
+    for (int attempt = 0;; ++attempt) {
+      api::HttpResponse r = http.request(method, target, body, headers);
+      if (r.status != 429 || attempt == 50) return r;
+      double after = 1;
+      try {
+        after = std::stod(r.header("retry-after"));
+      } catch (const std::exception&) {
+      }
+      std::this_thread::sleep_for(std::chrono::duration<double>(std::clamp(after, 0.05, 60.0)));
+    }
+  };
   std::map<std::string, std::string> auth = {{"Authorization", "Bearer " + o.token}};
   const std::string base = "/v1/maps/" + api::url_encode(o.map);
   auto manifest = http.get(base, auth);
@@ -43,7 +65,7 @@ PushReport push_version(const PushOptions& o) {
                    {"origin", {{"lat", map->origin.lat_deg}, {"lon", map->origin.lon_deg}, {"alt", map->origin.alt_m}}},
                    {"tile_size", map->tile_size},
                    {"voxel_size", map->voxel_size}};
-    expect(http.request("POST", "/v1/maps", create.dump(), auth), {201}, "creating map " + o.map + " on " + o.server);
+    expect(send("POST", "/v1/maps", create.dump(), auth), {201}, "creating map " + o.map + " on " + o.server);
     manifest = http.get(base, auth);
   }
   json m = expect(manifest, {200}, "reading map " + o.map + " on " + o.server);
@@ -53,7 +75,7 @@ PushReport push_version(const PushOptions& o) {
     throw Error("map " + o.map + " on " + o.server + " has another origin, tile size or voxel size than the local one: not pushing");
 
   json note = {{"note", "pushed from " + o.db + " v" + std::to_string(o.version)}};
-  json opened = expect(http.request("POST", base + "/versions", note.dump(), auth), {201}, "opening a version of " + o.map);
+  json opened = expect(send("POST", base + "/versions", note.dump(), auth), {201}, "opening a version of " + o.map);
   PushReport r;
   r.remote_version = opened["version"].get<std::int64_t>();
   const std::string vbase = base + "/versions/" + std::to_string(r.remote_version);
@@ -72,7 +94,7 @@ PushReport push_version(const PushOptions& o) {
     } else {
       auto bytes = store.blob(t.hash);
       if (!bytes) throw Error(o.db + ": the bytes of tile " + std::to_string(t.key.tx) + "/" + std::to_string(t.key.ty) + " are missing");
-      expect(http.request("PUT", vbase + "/tiles/" + std::to_string(t.key.tx) + "/" + std::to_string(t.key.ty), *bytes, auth), {200},
+      expect(send("PUT", vbase + "/tiles/" + std::to_string(t.key.tx) + "/" + std::to_string(t.key.ty), *bytes, auth), {200},
              "uploading tile " + std::to_string(t.key.tx) + "/" + std::to_string(t.key.ty));
       ++r.uploaded;
       r.bytes += bytes->size();
@@ -82,18 +104,18 @@ PushReport push_version(const PushOptions& o) {
   bar.finish();
   for (const auto& [key, hash] : have)
     if (!local.count(key)) {
-      expect(http.request("DELETE", vbase + "/tiles/" + std::to_string(key.tx) + "/" + std::to_string(key.ty), "", auth), {200},
+      expect(send("DELETE", vbase + "/tiles/" + std::to_string(key.tx) + "/" + std::to_string(key.ty), "", auth), {200},
              "deleting tile " + std::to_string(key.tx) + "/" + std::to_string(key.ty));
       ++r.deleted;
     }
   // The places go with the tiles: the new version started with a copy of the server's current ones.
   if (const auto places = store.places(o.map, o.version)) {
-    expect(http.request("PUT", vbase + "/places", *places, auth), {200}, "uploading the places");
+    expect(send("PUT", vbase + "/places", *places, auth), {200}, "uploading the places");
     r.places = true;
   } else {
-    expect(http.request("DELETE", vbase + "/places", "", auth), {200, 404}, "removing the places the local version lacks");
+    expect(send("DELETE", vbase + "/places", "", auth), {200, 404}, "removing the places the local version lacks");
   }
-  expect(http.request("POST", vbase + "/publish", "", auth), {200}, "publishing version " + std::to_string(r.remote_version));
+  expect(send("POST", vbase + "/publish", "", auth), {200}, "publishing version " + std::to_string(r.remote_version));
   return r;
 }
 

@@ -68,8 +68,7 @@ class StoreBackend {
 };
 
 std::unique_ptr<StoreBackend> open_sqlite(const std::string& path, bool create);
-// `url` is postgresql://... or postgres://...
+// `url` is postgresql://... or postgres://... (store::is_postgres_url)
 std::unique_ptr<StoreBackend> open_postgres(const std::string& url, bool create);
-bool is_postgres_url(std::string_view db);
 
 }  // namespace pl::store::detail

@@ -8,7 +8,7 @@
 
 namespace pl::store {
 
-bool detail::is_postgres_url(std::string_view db) {
+bool is_postgres_url(std::string_view db) {
   return db.rfind("postgresql://", 0) == 0 || db.rfind("postgres://", 0) == 0;
 }
 
@@ -26,7 +26,7 @@ Store::~Store() = default;
 
 Store Store::open(const std::string& db, bool create) {
   if (db.empty()) throw Error("map store: empty database path");
-  return Store(detail::is_postgres_url(db) ? detail::open_postgres(db, create) : detail::open_sqlite(db, create));
+  return Store(is_postgres_url(db) ? detail::open_postgres(db, create) : detail::open_sqlite(db, create));
 }
 
 detail::StoreBackend& Store::impl() const {

@@ -46,7 +46,7 @@ std::string trimmed(std::string s) {
 
 }  // namespace
 
-// is_postgres_url is store_facade.cpp's (Store::open picks the engine with it).
+// store::is_postgres_url is store_facade.cpp's (Store::open picks the engine with it).
 
 // The URL as messages show it: a password in the user part or in a password= parameter is ***.
 std::string redact_url(const std::string& url) {

@@ -22,6 +22,7 @@
 #include "pl/schema/api_rules.hpp"
 #include "pl/schema/store.hpp"
 #include "api_parts.hpp"
+#include "rate_limit.hpp"
 #include "version_index.hpp"
 
 using nlohmann::json;
@@ -148,6 +149,7 @@ struct Api::Impl {
   std::unordered_map<std::string, std::string> tile_hashes;
   VersionIndexCache version_indexes{8};  // ROI lookups of published and retired versions
   MapRows map_rows;                       // for ROI queries
+  RateLimiter upload_limits{cfg.upload_rate, cfg.upload_burst};  // per token, of writes
 
   Impl(ApiConfig c, Metrics& m) : cfg(std::move(c)), metrics(m), blobs(cfg.blob_cache_bytes) {}
 
@@ -171,10 +173,25 @@ struct Api::Impl {
     return role;
   }
   void require_role(const ApiRequest& req, store::Role needed) {
+    // Before the token is looked at: a token sent in clear over a network is to be rotated anyway.
+    if (static_cast<int>(needed) >= static_cast<int>(store::Role::Upload) && !req.from_loopback && !cfg.plain_uploads)
+      fail(403, "uploads over plain HTTP are taken only from this machine: send them over HTTPS through the TLS proxy "
+                "(deploy/nginx), or start pl-server with --plain-uploads when a TLS proxy on another machine forwards them");
     auto role = role_of(req);
     if (!role) fail(401, std::string("this needs a bearer token with the ") + store::role_name(needed) + " role");
     if (static_cast<int>(*role) < static_cast<int>(needed))
       fail(403, std::string("this needs the ") + store::role_name(needed) + " role; the token has " + store::role_name(*role));
+    if (static_cast<int>(needed) >= static_cast<int>(store::Role::Upload)) {
+      // Keyed by the token's hash (the token itself is never kept).
+      const double wait = upload_limits.take(store::content_hash(req.authorization));
+      if (wait > 0) {
+        const std::string after = std::to_string(static_cast<long>(std::ceil(wait)));
+        throw HttpError{429,
+                        "this token sends more than " + std::to_string(static_cast<long>(cfg.upload_rate)) +
+                            " uploads a second (pl-server --upload-rate): send again in " + after + " s",
+                        {{"Retry-After", after}}};
+      }
+    }
   }
   // Readers: a token is needed only with --read-token-required. Returns whether staged versions show.
   bool check_reader(const ApiRequest& req) {

@@ -184,6 +184,11 @@ struct Server::Impl {
       beast::error_code ec;
       auto ep = stream_.socket().remote_endpoint(ec);
       remote_ = ec ? "?" : ep.address().to_string() + ":" + std::to_string(ep.port());
+      if (!ec) {
+        const auto a = ep.address();
+        loopback_ = a.is_loopback() || (a.is_v6() && a.to_v6().is_v4_mapped() &&
+                                        net::ip::make_address_v4(net::ip::v4_mapped, a.to_v6()).is_loopback());
+      }
       ++server_.metrics.open_connections;
     }
     ~Session() {
@@ -244,6 +249,7 @@ struct Server::Impl {
       if (ec) return fail_read(ec);
       auto& req = parser_->get();
       ApiRequest ar = to_api_request(std::move(req), next_request_id());
+      ar.from_loopback = loopback_;
       bool keep = req.keep_alive() && !server_.stopping;
       ApiResponse r = server_.api.handle(ar);  // never throws
       request_id_ = ar.request_id;
@@ -406,6 +412,7 @@ struct Server::Impl {
     bool keep_ = false;
     Impl& server_;
     std::string remote_;
+    bool loopback_ = false;  // the peer is this machine
     std::string request_id_;
     bool first_ = true;
     bool idle_ = false;

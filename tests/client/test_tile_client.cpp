@@ -934,8 +934,11 @@ TEST(TileClient, BadConfigurationFailsAtConstruction) {
   c.map = "no spaces";
   EXPECT_NE(message(c).find("TileClientConfig: map"), std::string::npos);
   c = good;
-  c.server = "https://maps.example";
-  EXPECT_NE(message(c).find("only http://"), std::string::npos);
+  c.server = "ftp://maps.example";
+  EXPECT_NE(message(c).find("expected https://"), std::string::npos);
+  c = good;
+  c.server = "http://maps.example:8080";  // plain HTTP to another machine: only when told
+  EXPECT_NE(message(c).find("--insecure-http"), std::string::npos);
   c = good;
   c.memory_mb = 0;
   EXPECT_NE(message(c).find("memory_mb"), std::string::npos);

@@ -20,11 +20,12 @@ namespace pl::test {
 
 class ServerProcess {
  public:
-  // Starts `pl-server --db DB --listen LISTEN EXTRA...` (output to DB.log) with extra environment
-  // variables, and waits for its "listening" line.
+  // Starts `pl-server --db DB --listen LISTEN EXTRA...` (output to DB.log, or for a database URL to
+  // a file in the temporary folder) with extra environment variables, and waits for its
+  // "listening" line.
   ServerProcess(const std::string& db, std::vector<std::string> extra = {}, std::vector<std::pair<std::string, std::string>> env = {},
                 const std::string& listen = "127.0.0.1:0")
-      : log_(db + ".log") {
+      : log_(db.find("://") == std::string::npos ? db + ".log" : temp_log()) {
     std::vector<std::string> args = {tool("pl-server"), "--db", db, "--listen", listen, "--threads", "2"};
     args.insert(args.end(), extra.begin(), extra.end());
     int log_fd = open(log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -64,6 +65,11 @@ class ServerProcess {
       kill(pid_, SIGKILL);
       waitpid(pid_, nullptr, 0);
     }
+    if (log_.rfind("/tmp/pl-server-", 0) == 0) unlink(log_.c_str());
+  }
+  static std::string temp_log() {
+    static int n = 0;
+    return "/tmp/pl-server-" + std::to_string(getpid()) + "-" + std::to_string(++n) + ".log";
   }
   std::string url() const { return "http://127.0.0.1:" + std::to_string(port_); }
   int port() const { return port_; }

@@ -507,3 +507,56 @@ TEST(Server, LargeTileToASlowReaderArrivesWhole) {
   // The server carries on.
   EXPECT_EQ(HttpClient(server.url()).get("/healthz").status, 200);
 }
+
+// ROI queries read the map's row from a short-lived cache: the server's own publish shows at the
+// very next query, another writer's (here pl-map's Store on the same file) shortly after.
+TEST(Server, RoiAnswersFollowPublishesByTheServerAndByAnotherWriter) {
+  MapFixture f;
+  ServerProcess server(f.db, f.token_args());
+  HttpClient http(server.url());
+  const std::string roi = "/v1/maps/town/roi?x=10&y=10&radius=30";
+  ASSERT_EQ(body_json(http.get(roi))["version"], 1);  // the row is cached from here on
+  ASSERT_EQ(http.request("POST", "/v1/maps/town/versions", "", bearer(kUploadToken)).status, 201);
+  ASSERT_EQ(http.request("POST", "/v1/maps/town/versions/2/publish", "", bearer(kUploadToken)).status, 200);
+  EXPECT_EQ(body_json(http.get(roi))["version"], 2);  // at once: the publish dropped the cached row
+  {
+    auto store = pl::store::Store::open(f.db, false);
+    auto v = store.create_version("town", std::nullopt, "from another process");
+    store.publish("town", v.number);
+  }
+  long long seen = 0;
+  for (auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+       seen != 3 && std::chrono::steady_clock::now() < until;
+       std::this_thread::sleep_for(std::chrono::milliseconds(20)))
+    seen = body_json(http.get(roi))["version"].get<long long>();
+  EXPECT_EQ(seen, 3);
+  // An unknown map is never cached as missing.
+  EXPECT_EQ(http.get("/v1/maps/nowhere/roi?x=0&y=0&radius=1").status, 404);
+}
+
+// Each token's uploads are limited (429 with Retry-After beyond); pl-map push waits as told and
+// gets its version through all the same.
+TEST(Server, UploadsAreRateLimitedPerTokenAndPushWaitsItOut) {
+  MapFixture f;
+  TempDir dir;
+  const std::string remote = dir / "remote.sqlite";
+  pl::store::Store::open(remote, true);
+  ServerProcess server(remote, {"--tokens", f.dir / "tokens.txt", "--upload-rate", "4", "--upload-burst", "2"});
+  HttpClient http(server.url());
+  int limited = 0;
+  std::string retry_after, message;
+  for (int i = 0; i < 6; ++i) {
+    auto r = http.request("POST", "/v1/maps/town/versions", "", bearer(kUploadToken));  // 404: no such map, yet counted
+    if (r.status == 429) ++limited, retry_after = r.header("retry-after"), message = r.body;
+  }
+  EXPECT_GE(limited, 3);
+  EXPECT_EQ(retry_after, "1");
+  EXPECT_NE(message.find("--upload-rate"), std::string::npos) << message;
+  // Another token has its own allowance; reads are not limited.
+  EXPECT_NE(http.request("POST", "/v1/maps/town/versions", "", bearer(kAdminToken)).status, 429);
+  for (int i = 0; i < 10; ++i) EXPECT_EQ(http.get("/v1/maps").status, 200);
+  auto r = pl::test::run(pl::test::tool("pl-map") + " push --db " + f.db + " --map town --version 1 --server " + server.url() +
+                         " --token " + kAdminToken + " 2>&1");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(body_json(http.get("/v1/maps/town"))["current_version"], 1);
+}

@@ -39,7 +39,7 @@ namespace pl::client {
 std::size_t decoded_size(const TileCloud& cloud);
 
 struct TileClientConfig {
-  std::string server;                // "http://127.0.0.1:8080"
+  std::string server;                // "https://maps.example:443"; http:// only to this machine unless insecure_http
   std::string map;                   // map name
   std::optional<long long> version;  // pinned version; default: the map's current version at start
                                      // (or, with the server down, the version last used from the disk cache)
@@ -49,6 +49,8 @@ struct TileClientConfig {
   double timeout_s = 2.0;            // per request
   double retry_min_s = 0.2, retry_max_s = 5.0;  // exponential backoff while the server is down/erroring
   std::string token;                 // bearer token when the server requires one for reads
+  std::string ca_file;               // https: PEM file of the CA the server's certificate must chain to; empty: the system's
+  bool insecure_http = false;        // allow plain http:// to another machine (maps and token in clear)
 };
 
 struct TileClientStatus {

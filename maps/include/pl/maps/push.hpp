@@ -9,6 +9,8 @@ namespace pl::maps {
 struct PushOptions {
   std::string db, map, server, token;
   std::int64_t version = 0;
+  std::string ca_file;         // https: the CA the server's certificate must chain to; empty: the system's
+  bool insecure_http = false;  // allow plain http:// to another machine (the token crosses in clear)
 };
 
 struct PushReport {

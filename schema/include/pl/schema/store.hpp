@@ -85,6 +85,9 @@ struct TileRecord {
   double min_x = 0, min_y = 0, min_z = 0, max_x = 0, max_y = 0, max_z = 0;  // the points' box, ENU metres
 };
 
+// Whether `db` names a PostgreSQL database (postgresql://... or postgres://...), not a SQLite file.
+bool is_postgres_url(std::string_view db);
+
 // SHA-256 of bytes, lowercase hex.
 std::string content_hash(std::string_view bytes);
 

@@ -28,6 +28,13 @@ struct ApiConfig {
   std::string db;
   bool read_token_required = false;
   std::size_t blob_cache_bytes = 256u << 20;  // immutable tiles and places kept in memory, by content hash
+  // pl-server speaks plain HTTP (TLS ends in a proxy: deploy/nginx): requests that need the upload
+  // or admin role are refused unless they come from this machine (the proxy's side), or this says a
+  // TLS proxy on another machine forwards them.
+  bool plain_uploads = false;
+  // Requests that need the upload or admin role, per token: this many a second on average, bursts
+  // of upload_burst (429 with Retry-After beyond). 0: no limit.
+  double upload_rate = 200, upload_burst = 400;
 };
 
 struct ApiRequest {
@@ -38,6 +45,7 @@ struct ApiRequest {
   std::string if_none_match;
   std::string accept_encoding;
   std::string request_id;  // the server's id of the request, for the log of an internal error
+  bool from_loopback = true;  // the peer's address is this machine's (Server sets it from the socket)
 };
 
 struct ApiResponse {
@@ -64,7 +72,7 @@ class Metrics {
                                             "/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}", "/v1/maps/{map}/versions/{v}/publish",
                                             "/v1/maps/{map}/versions/{v}/places",
                                             "/v1/blobs/{hash}", "other"};
-  static constexpr int kStatuses[] = {200, 201, 204, 304, 400, 401, 403, 404, 405, 409, 413, 422, 431, 500, 503, 0};  // 0: any other
+  static constexpr int kStatuses[] = {200, 201, 204, 304, 400, 401, 403, 404, 405, 409, 413, 422, 429, 431, 500, 503, 0};  // 0: any other
   static constexpr double kBuckets[] = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 1.0};
   static constexpr std::size_t kNRoutes = sizeof(kRoutes) / sizeof(kRoutes[0]), kNStatuses = sizeof(kStatuses) / sizeof(int),
                                kNBuckets = sizeof(kBuckets) / sizeof(double) + 1;
