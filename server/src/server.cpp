@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <csignal>
 #include <random>
 #include <fcntl.h>
 #include <filesystem>
@@ -478,7 +479,13 @@ struct Server::Impl {
   }
 };
 
-Server::Server(ServerConfig cfg) : impl_(std::make_unique<Impl>(std::move(cfg))) {}
+Server::Server(ServerConfig cfg) : impl_(std::make_unique<Impl>(std::move(cfg))) {
+  // Tile bodies go out with sendfile(2), which, unlike Asio's sends (MSG_NOSIGNAL), raises SIGPIPE
+  // when the client has gone: by default that ends the process. A client hanging up mid-answer is
+  // an ordinary event (wrk at the end of a run did it every time): the write fails with EPIPE and
+  // that connection is closed.
+  std::signal(SIGPIPE, SIG_IGN);
+}
 Server::~Server() = default;
 
 std::uint16_t Server::port() const { return impl_->acceptors.front()->local_endpoint().port(); }

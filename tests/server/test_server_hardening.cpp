@@ -371,3 +371,41 @@ TEST(ServerHardening, TenThousandRandomAndMalformedRequests) {
   EXPECT_LT(rss_late - rss_early, 64 * 1024) << "memory grew by more than 64 MiB over 8000 requests";
   expect_healthy(server);
 }
+
+// Clients that hang up while their tiles are being sent (a vehicle losing its cellular link; wrk at
+// the end of every run): the write fails for that connection only. Tile bodies go out with
+// sendfile(2), which raised SIGPIPE and ended the whole server until the server ignored it.
+TEST(ServerHardening, ClientsHangingUpMidAnswerDoNotStopTheServer) {
+  MapFixture f;
+  {
+    // A tile of 8 MB (the server sends stored bytes as they are): more than one sendfile call's worth.
+    auto store = pl::store::Store::open(f.db, false);
+    auto v = store.create_version("town", std::nullopt, "a large tile");
+    std::string big(8u << 20, '\0');
+    std::mt19937 rng(7);
+    for (auto& c : big) c = static_cast<char>(rng());
+    store.put_tile("town", v.number, pl::TileKey{100, 100}, big, 1, 2000, 2000, 0, 2001, 2001, 1);
+    store.publish("town", v.number);
+  }
+  ServerProcess server(f.db);
+  const std::string request = "GET /v1/maps/town/versions/2/tiles/100/100 HTTP/1.1\r\nHost: x\r\n\r\n";
+  for (int round = 0; round < 20; ++round) {
+    int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(static_cast<std::uint16_t>(server.port()));
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
+    ASSERT_EQ(send(fd, request.data(), request.size(), MSG_NOSIGNAL), static_cast<ssize_t>(request.size()));
+    if (round % 2) {
+      char first;
+      recv(fd, &first, 1, 0);  // the answer has begun
+    }
+    // Closed unread: this side resets the connection at the answer's next bytes, and the server's
+    // write after that fails.
+    close(fd);
+    ASSERT_TRUE(server.alive()) << "round " << round << ": " << server.output();
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  expect_healthy(server);
+}
