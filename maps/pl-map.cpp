@@ -197,11 +197,53 @@ void add_push(Tool& tool) {
 
 }  // namespace
 
+// Tokens: made here (random), stored hashed, revoked without restarting any server.
+void add_token_commands(Tool& tool) {
+  struct State {
+    std::string db, role = "read", note;
+    std::int64_t id = 0;
+  };
+  auto s = std::make_shared<State>();
+  CLI::App& add = tool.command("token-add", "make a new bearer token and register it (the store keeps only its SHA-256)", [s] {
+    auto store = pl::store::Store::open(s->db, false);
+    const auto role = pl::store::parse_role(s->role);
+    if (!role) throw pl::Error("--role " + s->role + ": expected read, upload or admin");
+    const std::string token = pl::store::random_token();
+    const auto id = store.add_token(token, *role, s->note);
+    std::printf("%s\n", token.c_str());
+    std::fprintf(stderr, "token %lld (%s) registered: keep it now, the store holds only its hash; revoke it with pl-map token-revoke --id %lld\n",
+                 static_cast<long long>(id), s->role.c_str(), static_cast<long long>(id));
+    return 0;
+  });
+  db_option(add, s->db, false);
+  add.add_option("--role", s->role, "read, upload or admin (each includes the ones before it)")->check(CLI::IsMember({"read", "upload", "admin"}));
+  add.add_option("--note", s->note, "what or who the token is for");
+  CLI::App& list = tool.command("token-list", "the tokens: id, role, created, revoked, note (never a token)", [s] {
+    auto store = pl::store::Store::open(s->db, false);
+    std::printf("%-6s %-7s %-25s %-25s %s\n", "id", "role", "created", "revoked", "note");
+    for (const auto& t : store.list_tokens())
+      std::printf("%-6lld %-7s %-25s %-25s %s\n", static_cast<long long>(t.id), pl::store::role_name(t.role), t.created.c_str(),
+                  t.revoked ? t.revoked->c_str() : "-", pl::printable(t.note).c_str());
+    return 0;
+  });
+  db_option(list, s->db, false);
+  CLI::App& revoke = tool.command("token-revoke", "take a token out of force, at once for every server on the store", [s] {
+    auto store = pl::store::Store::open(s->db, false);
+    if (!store.revoke_token(s->id))
+      throw pl::Error("token " + std::to_string(s->id) + ": no such token, or revoked already (pl-map token-list --db " + s->db + ")");
+    std::printf("token %lld revoked\n", static_cast<long long>(s->id));
+    return 0;
+  });
+  db_option(revoke, s->db, false);
+  pl::cli::number(revoke, "--id", s->id, "the token's id (pl-map token-list)", pl::cli::at_least(1))->required()->default_str("");
+}
+
 int main(int argc, char** argv) {
   Tool tool("pl-map", "Build maps from drives, cut them into Draco tiles in a versioned SQLite map store, publish them.");
   add_build(tool);
   add_tile(tool);
   add_store_commands(tool);
+  add_token_commands(tool);
   add_push(tool);
   return tool.main(argc, argv);
 }

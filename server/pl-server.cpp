@@ -37,7 +37,17 @@ void add_tokens(const std::string& db, const std::string& path) {
     auto f = pl::split_fields(line, " \t\r");
     auto role = f.size() == 2 ? pl::store::parse_role(f[0]) : std::nullopt;
     if (!role) reader.fail("\"ROLE TOKEN\" with ROLE read, upload or admin", line);
-    if (!store.check_token(std::string(f[1]))) store.add_token(std::string(f[1]), *role, "from " + path);
+    const std::string token(f[1]);
+    if (!store.check_token(token)) {
+      try {
+        store.add_token(token, *role, "from " + path);
+      } catch (const pl::Error&) {
+        // Registered already and not in force: revoked. The file does not bring it back.
+        std::fprintf(stderr, "pl-server: %s line %zu: this token was revoked (pl-map token-list): not in force; remove it from the file\n",
+                     path.c_str(), reader.line_number());
+        continue;
+      }
+    }
     ++n;
   }
   std::fprintf(stderr, "pl-server: %zu tokens from %s\n", n, path.c_str());

@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "pl/schema/store.hpp"
@@ -50,8 +51,11 @@ class StoreBackend {
   virtual std::optional<std::string> places(const std::string& map, std::int64_t version) const = 0;
   virtual std::optional<std::string> places_hash(const std::string& map, std::int64_t version) const = 0;
 
-  virtual void add_token(const std::string& token, Role role, const std::string& note) = 0;
-  virtual std::optional<Role> check_token(const std::string& token) const = 0;
+  virtual std::int64_t add_token(const std::string& token, Role role, const std::string& note) = 0;
+  // The row whose hash is `hash` (revoked or not), with the hash as stored: Store compares it.
+  virtual std::optional<std::pair<Store::TokenInfo, std::string>> token_by_hash(const std::string& hash) const = 0;
+  virtual bool revoke_token(std::int64_t id) = 0;
+  virtual std::vector<Store::TokenInfo> list_tokens() const = 0;
 
   virtual void log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
                           const std::string& detail, const std::string& who) = 0;

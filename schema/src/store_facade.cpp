@@ -2,6 +2,10 @@
 // forwards every call to it (store_backend.hpp); the promises are in store.hpp.
 #include <utility>
 
+#include <openssl/crypto.h>
+#include <openssl/evp.h>
+#include <openssl/rand.h>
+
 #include "pl/common/error.hpp"
 #include "pl/schema/store.hpp"
 #include "store_backend.hpp"
@@ -18,6 +22,17 @@ std::unique_ptr<detail::StoreBackend> detail::open_postgres(const std::string& u
   throw Error(url.substr(0, url.find("://") + 3) + "...: this build of PointLocalization has no PostgreSQL map store");
 }
 #endif
+
+std::string random_token() {
+  unsigned char bytes[32];
+  if (RAND_bytes(bytes, sizeof(bytes)) != 1) throw Error("cannot make a token: OpenSSL's RAND_bytes failed");
+  unsigned char b64[64];
+  const int n = EVP_EncodeBlock(b64, bytes, sizeof(bytes));
+  std::string out(reinterpret_cast<const char*>(b64), static_cast<std::size_t>(n));
+  for (auto& c : out) c = c == '+' ? '-' : c == '/' ? '_' : c;  // base64url
+  while (!out.empty() && out.back() == '=') out.pop_back();
+  return out;
+}
 
 Store::Store(std::unique_ptr<detail::StoreBackend> impl) : impl_(std::move(impl)) {}
 Store::Store(Store&&) noexcept = default;
@@ -85,8 +100,28 @@ std::optional<std::string> Store::places_hash(const std::string& map, std::int64
   return impl().places_hash(map, version);
 }
 
-void Store::add_token(const std::string& token, Role role, const std::string& note) { impl().add_token(token, role, note); }
-std::optional<Role> Store::check_token(const std::string& token) const { return impl().check_token(token); }
+std::int64_t Store::add_token(const std::string& token, Role role, const std::string& note) {
+  return impl().add_token(token, role, note);
+}
+
+std::optional<Store::TokenInfo> Store::find_token(const std::string& token) const {
+  if (token.empty()) return std::nullopt;
+  const std::string hash = content_hash(token);
+  auto found = impl().token_by_hash(hash);
+  // The engine found the row by the hash; the equality that decides is made here, in constant time.
+  if (!found || found->second.size() != hash.size() || CRYPTO_memcmp(found->second.data(), hash.data(), hash.size()) != 0 ||
+      found->first.revoked)
+    return std::nullopt;
+  return found->first;
+}
+
+std::optional<Role> Store::check_token(const std::string& token) const {
+  auto t = find_token(token);
+  return t ? std::optional<Role>(t->role) : std::nullopt;
+}
+
+bool Store::revoke_token(std::int64_t id) { return impl().revoke_token(id); }
+std::vector<Store::TokenInfo> Store::list_tokens() const { return impl().list_tokens(); }
 
 void Store::log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
                        const std::string& detail, const std::string& who) {

@@ -66,8 +66,10 @@ class SqliteStore final : public StoreBackend {
   bool delete_places(const std::string& map, std::int64_t version) override;
   std::optional<std::string> places(const std::string& map, std::int64_t version) const override;
   std::optional<std::string> places_hash(const std::string& map, std::int64_t version) const override;
-  void add_token(const std::string& token, Role role, const std::string& note) override;
-  std::optional<Role> check_token(const std::string& token) const override;
+  std::int64_t add_token(const std::string& token, Role role, const std::string& note) override;
+  std::optional<std::pair<Store::TokenInfo, std::string>> token_by_hash(const std::string& hash) const override;
+  bool revoke_token(std::int64_t id) override;
+  std::vector<Store::TokenInfo> list_tokens() const override;
   void log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
                   const std::string& detail, const std::string& who) override;
   std::vector<Store::LogEntry> upload_log(const std::string& map) const override;

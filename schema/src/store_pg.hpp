@@ -74,8 +74,10 @@ class PgStore final : public StoreBackend {
   std::optional<std::string> places(const std::string& map, std::int64_t version) const override;
   std::optional<std::string> places_hash(const std::string& map, std::int64_t version) const override;
 
-  void add_token(const std::string& token, Role role, const std::string& note) override;
-  std::optional<Role> check_token(const std::string& token) const override;
+  std::int64_t add_token(const std::string& token, Role role, const std::string& note) override;
+  std::optional<std::pair<Store::TokenInfo, std::string>> token_by_hash(const std::string& hash) const override;
+  bool revoke_token(std::int64_t id) override;
+  std::vector<Store::TokenInfo> list_tokens() const override;
 
   void log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
                   const std::string& detail, const std::string& who) override;

@@ -86,7 +86,11 @@ const PgStatement kPgTileStatements[] = {
      "FROM places AS p WHERE p.map_id = (SELECT id FROM maps WHERE name = $1) AND p.version = $2"},
     // ---- tokens and the upload log
     {"token_insert", "INSERT INTO tokens (hash, role, note) VALUES ($1, $2, $3) ON CONFLICT (hash) DO NOTHING RETURNING id"},
-    {"token_role", "SELECT role FROM tokens WHERE hash = $1"},
+    {"token_by_hash",
+     "SELECT id, role, note, " PL_PG_TIMESTAMP("created") ", " PL_PG_TIMESTAMP("revoked") ", hash FROM tokens WHERE hash = $1"},
+    {"token_list",
+     "SELECT id, role, note, " PL_PG_TIMESTAMP("created") ", " PL_PG_TIMESTAMP("revoked") ", hash FROM tokens ORDER BY id"},
+    {"token_revoke", "UPDATE tokens SET revoked = statement_timestamp() WHERE id = $1 AND revoked IS NULL RETURNING id"},
     {"log_insert", "INSERT INTO upload_log (map, version, action, detail, who) VALUES ($1, $2, $3, $4, $5)"},
     {"log_list",
      "SELECT id, " PL_PG_TIMESTAMP("at") ", map, version, action, detail, who FROM upload_log WHERE map = $1 "
@@ -350,28 +354,51 @@ std::optional<std::string> PgStore::places_hash(const std::string& map, std::int
 
 // ---- tokens and the upload log -------------------------------------------------------------------
 
-void PgStore::add_token(const std::string& token, Role role, const std::string& note) {
+std::int64_t PgStore::add_token(const std::string& token, Role role, const std::string& note) {
   if (token.empty()) throw Error(name_ + ": empty token");
   if (!parse_role(role_name(role))) throw Error(name_ + ": invalid role " + pg_num(static_cast<int>(role)));
   require_text(note, "token's note");
   const std::string hash = content_hash(token);
-  one_statement([&](Work& w) {
+  return one_statement([&](Work& w) {
+    const pqxx::result r = w.exec_prepared("token_insert", hash, role_name(role), note);
     // Never echo the token itself into a message.
-    if (w.exec_prepared("token_insert", hash, role_name(role), note).empty())
-      throw Error(name_ + ": this token is already registered");
+    if (r.empty()) throw Error(name_ + ": this token is already registered");
+    return PgRow(*this, r[0], "tokens").integer(0, "id", 1);
   });
 }
 
-std::optional<Role> PgStore::check_token(const std::string& token) const {
-  if (token.empty()) return std::nullopt;
-  const std::string hash = content_hash(token);
-  return one_statement([&](Work& w) -> std::optional<Role> {
-    const pqxx::result r = w.exec_prepared("token_role", hash);
+namespace {
+std::pair<Store::TokenInfo, std::string> read_token(const PgStore& store, const pqxx::row& r) {
+  PgRow row(store, r, "tokens");
+  Store::TokenInfo t;
+  t.id = row.integer(0, "id", 1);
+  auto role = parse_role(row.text(1, "role"));
+  if (!role) row.bad("role", "is not one of read, upload, admin");
+  t.role = *role;
+  t.note = row.text(2, "note");
+  t.created = row.timestamp(3, "created");
+  if (!r[4].is_null()) t.revoked = row.timestamp(4, "revoked");
+  return {t, row.hash(5, "hash")};
+}
+}  // namespace
+
+std::optional<std::pair<Store::TokenInfo, std::string>> PgStore::token_by_hash(const std::string& hash) const {
+  return one_statement([&](Work& w) -> std::optional<std::pair<Store::TokenInfo, std::string>> {
+    const pqxx::result r = w.exec_prepared("token_by_hash", hash);
     if (r.empty()) return std::nullopt;
-    PgRow row(*this, r[0], "tokens");
-    auto role = parse_role(row.text(0, "role"));
-    if (!role) row.bad("role", "is not one of read, upload, admin");
-    return role;
+    return read_token(*this, r[0]);
+  });
+}
+
+bool PgStore::revoke_token(std::int64_t id) {
+  return one_statement([&](Work& w) { return !w.exec_prepared("token_revoke", id).empty(); });
+}
+
+std::vector<Store::TokenInfo> PgStore::list_tokens() const {
+  return one_statement([&](Work& w) {
+    std::vector<Store::TokenInfo> out;
+    for (const auto& r : w.exec_prepared("token_list")) out.push_back(read_token(*this, r).first);
+    return out;
   });
 }
 

@@ -169,7 +169,7 @@ bool SqliteStore::has_blob(const std::string& hash) const {
 
 // ---- tokens and the upload log -------------------------------------------------------------------
 
-void SqliteStore::add_token(const std::string& token, Role role, const std::string& note) {
+std::int64_t SqliteStore::add_token(const std::string& token, Role role, const std::string& note) {
   const Db db = conn();
   if (token.empty()) throw Error(path_ + ": empty token");
   if (!parse_role(role_name(role))) throw Error(path_ + ": invalid role " + num(static_cast<int>(role)));
@@ -186,19 +186,51 @@ void SqliteStore::add_token(const std::string& token, Role role, const std::stri
       .bind_text(2, role_name(role))
       .bind_text(3, note)
       .run();
+  const std::int64_t id = sqlite3_last_insert_rowid(db.get());
   tx.commit();
+  return id;
 }
 
-std::optional<Role> SqliteStore::check_token(const std::string& token) const {
-  const Db db = conn();
-  if (token.empty()) return std::nullopt;
-  Stmt st(db, "SELECT role FROM tokens WHERE hash = ?1");
-  st.bind_text(1, content_hash(token));
-  if (!st.step()) return std::nullopt;
+namespace {
+constexpr const char* kTokenColumns = "SELECT id, role, note, created, revoked, hash FROM tokens ";
+
+std::pair<Store::TokenInfo, std::string> read_token(const Stmt& st) {
   Row row(st, "tokens");
-  auto role = parse_role(row.text(0, "role"));
+  Store::TokenInfo t;
+  t.id = row.integer(0, "id", 1);
+  auto role = parse_role(row.text(1, "role"));
   if (!role) row.bad("role", "is not one of read, upload, admin");
-  return role;
+  t.role = *role;
+  t.note = row.text(2, "note");
+  t.created = read_timestamp(row, 3, "created");
+  if (!st.is_null(4)) t.revoked = read_timestamp(row, 4, "revoked");
+  return {t, row.hash(5, "hash")};
+}
+}  // namespace
+
+std::optional<std::pair<Store::TokenInfo, std::string>> SqliteStore::token_by_hash(const std::string& hash) const {
+  Stmt st(conn(), (std::string(kTokenColumns) + "WHERE hash = ?1").c_str());
+  st.bind_text(1, hash);
+  if (!st.step()) return std::nullopt;
+  return read_token(st);
+}
+
+bool SqliteStore::revoke_token(std::int64_t id) {
+  const Db db = conn();
+  WriteScope tx(db);
+  Stmt(db, "UPDATE tokens SET revoked = strftime('%Y-%m-%dT%H:%M:%fZ', 'now') WHERE id = ?1 AND revoked IS NULL")
+      .bind_int64(1, id)
+      .run();
+  const bool changed = sqlite3_changes(db.get()) == 1;
+  tx.commit();
+  return changed;
+}
+
+std::vector<Store::TokenInfo> SqliteStore::list_tokens() const {
+  Stmt st(conn(), (std::string(kTokenColumns) + "ORDER BY id").c_str());
+  std::vector<Store::TokenInfo> out;
+  while (st.step()) out.push_back(read_token(st).first);
+  return out;
 }
 
 void SqliteStore::log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,

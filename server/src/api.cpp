@@ -164,26 +164,36 @@ struct Api::Impl {
     return *conn;
   }
 
-  std::optional<store::Role> role_of(const ApiRequest& req) {
+  // The request's token, looked up in the store each time: a token added or revoked (pl-map token)
+  // counts at the next request, on every replica, without a restart.
+  std::optional<store::Store::TokenInfo> token_of(const ApiRequest& req) {
     if (req.authorization.empty()) return std::nullopt;
     const std::string prefix = "Bearer ";
     if (req.authorization.rfind(prefix, 0) != 0) fail(401, "the Authorization header must be \"Bearer TOKEN\"");
-    auto role = db().check_token(req.authorization.substr(prefix.size()));
-    if (!role) fail(401, "unknown token");
-    return role;
+    auto token = db().find_token(req.authorization.substr(prefix.size()));
+    if (!token) fail(401, "unknown or revoked token");
+    return token;
+  }
+  std::optional<store::Role> role_of(const ApiRequest& req) {
+    auto token = token_of(req);
+    return token ? std::optional<store::Role>(token->role) : std::nullopt;
+  }
+  // Who the upload log names for a write: its token's id (never the token).
+  std::string who(const ApiRequest& req) {
+    auto token = token_of(req);
+    return token ? "token " + std::to_string(token->id) : "api";
   }
   void require_role(const ApiRequest& req, store::Role needed) {
     // Before the token is looked at: a token sent in clear over a network is to be rotated anyway.
     if (static_cast<int>(needed) >= static_cast<int>(store::Role::Upload) && !req.from_loopback && !cfg.plain_uploads)
       fail(403, "uploads over plain HTTP are taken only from this machine: send them over HTTPS through the TLS proxy "
                 "(deploy/nginx), or start pl-server with --plain-uploads when a TLS proxy on another machine forwards them");
-    auto role = role_of(req);
-    if (!role) fail(401, std::string("this needs a bearer token with the ") + store::role_name(needed) + " role");
-    if (static_cast<int>(*role) < static_cast<int>(needed))
-      fail(403, std::string("this needs the ") + store::role_name(needed) + " role; the token has " + store::role_name(*role));
+    auto token = token_of(req);
+    if (!token) fail(401, std::string("this needs a bearer token with the ") + store::role_name(needed) + " role");
+    if (static_cast<int>(token->role) < static_cast<int>(needed))
+      fail(403, std::string("this needs the ") + store::role_name(needed) + " role; the token has " + store::role_name(token->role));
     if (static_cast<int>(needed) >= static_cast<int>(store::Role::Upload)) {
-      // Keyed by the token's hash (the token itself is never kept).
-      const double wait = upload_limits.take(store::content_hash(req.authorization));
+      const double wait = upload_limits.take(std::to_string(token->id));
       if (wait > 0) {
         const std::string after = std::to_string(static_cast<long>(std::ceil(wait)));
         throw HttpError{429,
@@ -238,7 +248,7 @@ struct Api::Impl {
       } catch (const Error& e) {
         fail(400, e.what());
       }
-      db().log_upload(name, std::nullopt, "create_map", req.body, "api");
+      db().log_upload(name, std::nullopt, "create_map", req.body, who(req));
       return json_response(201, {{"name", m.name}, {"tile_size", m.tile_size}, {"voxel_size", m.voxel_size}}, "/v1/maps");
     } catch (const json::exception& e) {
       fail(400, std::string("expected JSON {\"name\", \"origin\": {\"lat\", \"lon\", \"alt\"}, \"tile_size\", \"voxel_size\"}: ") + e.what());
@@ -461,7 +471,7 @@ struct Api::Impl {
     }
     auto rec = db().put_tile(name, info.number, key, req.body, static_cast<std::int64_t>(up.points), up.min[0], up.min[1], up.min[2],
                              up.max[0], up.max[1], up.max[2]);
-    db().log_upload(name, info.number, "put_tile", std::to_string(key.tx) + "/" + std::to_string(key.ty) + " " + rec.hash, "api");
+    db().log_upload(name, info.number, "put_tile", std::to_string(key.tx) + "/" + std::to_string(key.ty) + " " + rec.hash, who(req));
     return json_response(200, {{"tx", key.tx}, {"ty", key.ty}, {"hash", rec.hash}, {"points", rec.points}, {"bytes", rec.bytes}}, route);
   }
 
@@ -470,7 +480,7 @@ struct Api::Impl {
     if (req.body.empty()) fail(422, "the body is empty: PUT the places file that pl-map build wrote (1 byte to 64 MiB)");
     db().put_places(name, info.number, req.body);
     const std::string hash = store::content_hash(req.body);
-    db().log_upload(name, info.number, "put_places", hash + " " + std::to_string(req.body.size()) + " bytes", "api");
+    db().log_upload(name, info.number, "put_places", hash + " " + std::to_string(req.body.size()) + " bytes", who(req));
     return json_response(200, {{"version", info.number}, {"hash", hash}, {"bytes", req.body.size()}},
                          "/v1/maps/{map}/versions/{v}/places");
   }
@@ -480,7 +490,7 @@ struct Api::Impl {
   ApiResponse delete_places(const ApiRequest& req, const std::string& name, const std::string& vs) {
     auto info = need_staged(req, name, vs);
     if (!db().delete_places(name, info.number)) fail(404, "map " + name + " version " + std::to_string(info.number) + " has no places");
-    db().log_upload(name, info.number, "delete_places", "", "api");
+    db().log_upload(name, info.number, "delete_places", "", who(req));
     return json_response(200, {{"deleted", true}}, "/v1/maps/{map}/versions/{v}/places");
   }
 
@@ -488,7 +498,7 @@ struct Api::Impl {
     auto info = need_staged(req, name, vs);
     TileKey key{parse_tile_index(txs), parse_tile_index(tys)};
     if (!db().delete_tile(name, info.number, key)) fail(404, "version " + std::to_string(info.number) + " has no tile " + txs + "/" + tys);
-    db().log_upload(name, info.number, "delete_tile", txs + "/" + tys, "api");
+    db().log_upload(name, info.number, "delete_tile", txs + "/" + tys, who(req));
     return json_response(200, {{"deleted", true}}, "/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}");
   }
 
@@ -504,7 +514,7 @@ struct Api::Impl {
       }
     }
     auto v = db().create_version(name, std::nullopt, note);
-    db().log_upload(name, v.number, "create_version", note, "api");
+    db().log_upload(name, v.number, "create_version", note, who(req));
     return json_response(201, {{"version", v.number}, {"parent", v.parent ? json(*v.parent) : json(nullptr)}, {"state", "staged"}},
                          "/v1/maps/{map}/versions");
   }
@@ -513,7 +523,7 @@ struct Api::Impl {
     auto info = need_staged(req, name, vs);
     db().publish(name, info.number);
     map_rows.drop(name);
-    db().log_upload(name, info.number, "publish", "", "api");
+    db().log_upload(name, info.number, "publish", "", who(req));
     return json_response(200, {{"version", info.number}, {"state", "published"}}, "/v1/maps/{map}/versions/{v}/publish");
   }
 

@@ -146,10 +146,9 @@ TEST_F(SqliteStoreTest, MigratesASchema1StoreOnOpen) {
     ASSERT_EQ(raw.scalar("PRAGMA user_version"), 1);
     ASSERT_EQ(raw.scalar("SELECT count(*) FROM sqlite_schema WHERE name = 'places'"), 0);
   }
-  EXPECT_EQ(Store::latest_schema_version(), 2);
   {
     Store s = Store::open(path, /*create=*/false);
-    EXPECT_EQ(s.schema_version(), 2);
+    EXPECT_EQ(s.schema_version(), Store::latest_schema_version());
     auto m = s.find_map("old");
     ASSERT_TRUE(m);
     EXPECT_EQ(m->current, 1);
@@ -165,11 +164,11 @@ TEST_F(SqliteStoreTest, MigratesASchema1StoreOnOpen) {
     EXPECT_EQ(s.places("old", 2), "descriptors");
   }
   RawDb raw(path);
-  EXPECT_EQ(raw.scalar("PRAGMA user_version"), 2);
+  EXPECT_EQ(raw.scalar("PRAGMA user_version"), Store::latest_schema_version());
   EXPECT_EQ(raw.scalar("SELECT count(*) FROM places"), 1);
   // Reopening checks the schema against the migrations' own, and finds nothing left to migrate.
   Store again = Store::open(path, false);
-  EXPECT_EQ(again.schema_version(), 2);
+  EXPECT_EQ(again.schema_version(), Store::latest_schema_version());
   EXPECT_EQ(again.places("old", 2), "descriptors");
 }
 
@@ -637,6 +636,43 @@ TEST_P(StoreTest, TokensAreStoredHashed) {
   }
   Store s = Store::open(path);
   EXPECT_EQ(s.check_token(admin), Role::Admin);
+}
+
+TEST_P(StoreTest, TokensHaveIdsAndAreRevokedForEveryConnectionAtOnce) {
+  Store s = Store::open(path);
+  Store other = Store::open(path);  // another connection: another server thread, process or replica
+  const std::string a = pl::store::random_token(), b = pl::store::random_token();
+  EXPECT_EQ(a.size(), 43u);
+  EXPECT_NE(a, b);
+  EXPECT_EQ(a.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-_"), std::string::npos) << a;
+  const auto ida = s.add_token(a, Role::Upload, "survey car 1");
+  const auto idb = s.add_token(b, Role::Admin, "ops");
+  EXPECT_NE(ida, idb);
+  auto found = other.find_token(a);
+  ASSERT_TRUE(found);
+  EXPECT_EQ(found->id, ida);
+  EXPECT_EQ(found->role, Role::Upload);
+  EXPECT_EQ(found->note, "survey car 1");
+  EXPECT_TRUE(is_utc_iso8601(found->created)) << found->created;
+  EXPECT_FALSE(found->revoked);
+
+  EXPECT_TRUE(s.revoke_token(ida));
+  EXPECT_FALSE(other.find_token(a));  // at once, on the other connection too
+  EXPECT_FALSE(other.check_token(a));
+  EXPECT_EQ(other.check_token(b), Role::Admin);  // the rest stay in force
+  EXPECT_FALSE(s.revoke_token(ida));             // once
+  EXPECT_FALSE(s.revoke_token(idb + 1000));      // no such token
+  // A revoked token cannot be registered again (that would bring it back).
+  EXPECT_TRUE(contains(error_of([&] { s.add_token(a, Role::Read, "again"); }), "already registered"));
+  EXPECT_FALSE(s.check_token(a));
+
+  auto list = other.list_tokens();
+  ASSERT_EQ(list.size(), 2u);
+  EXPECT_EQ(list[0].id, ida);
+  ASSERT_TRUE(list[0].revoked);
+  EXPECT_TRUE(is_utc_iso8601(*list[0].revoked)) << *list[0].revoked;
+  EXPECT_FALSE(list[1].revoked);
+  EXPECT_EQ(list[1].role, Role::Admin);
 }
 
 TEST_P(StoreTest, UploadLogIsAppendOnly) {
@@ -1362,7 +1398,7 @@ TEST_F(PgStoreTest, MigratesASchema1DatabaseOnOpen) {
   ASSERT_EQ(pl::test::pg_scalar(url, "SELECT count(*) FROM pg_tables WHERE tablename = 'places'"), 0);
   {
     Store s = Store::open(url, /*create=*/false);
-    EXPECT_EQ(s.schema_version(), 2);
+    EXPECT_EQ(s.schema_version(), Store::latest_schema_version());
     EXPECT_EQ(s.find_map("old")->current, 1);
     EXPECT_EQ(s.find_version("old", 1)->note, "made at schema 1");
     EXPECT_EQ(s.blob(hash), "abc");
@@ -1372,7 +1408,7 @@ TEST_F(PgStoreTest, MigratesASchema1DatabaseOnOpen) {
     s.put_places("old", 2, "descriptors");
     EXPECT_EQ(s.places("old", 2), "descriptors");
   }
-  EXPECT_EQ(pl::test::pg_scalar(url, "SELECT max(number) FROM schema_migrations"), 2);
+  EXPECT_EQ(pl::test::pg_scalar(url, "SELECT max(number) FROM schema_migrations"), Store::latest_schema_version());
   Store again = Store::open(url, false);
   EXPECT_EQ(again.places("old", 2), "descriptors");
 }

@@ -250,7 +250,7 @@ TEST(Server, BadInputGetsTheRightStatusAndAJsonError) {
   expect(http.get("/v1/nothing"), 404, "no such resource");
   expect(http.request("DELETE", "/v1/maps/town"), 405, "not allowed");
   expect(http.request("POST", "/v1/maps/town/versions"), 401, "upload role");
-  expect(http.request("POST", "/v1/maps/town/versions", "", bearer("wrong")), 401, "unknown token");
+  expect(http.request("POST", "/v1/maps/town/versions", "", bearer("wrong")), 401, "unknown or revoked token");
   expect(http.request("POST", "/v1/maps/town/versions", "", bearer(kReadToken)), 403, "needs the upload role");
   expect(http.request("POST", "/v1/maps", R"({"name":"x","origin":{"lat":1,"lon":2}})", bearer(kUploadToken)), 403, "admin");
   expect(http.request("POST", "/v1/maps", "{not json", bearer(kAdminToken)), 400, "expected JSON");
@@ -371,8 +371,10 @@ TEST(Server, PlacesAreUploadedWhileStagedAndServedUnderTheirHash) {
   for (const auto& e : store.upload_log("town"))
     if (e.action.find("places") != std::string::npos)
       uploads.push_back(e.action + " " + std::to_string(*e.version) + " " + e.detail + " " + e.who);
-  EXPECT_EQ(uploads, (std::vector<std::string>{"put_places 2 " + first_hash + " 300000 bytes api",
-                                               "put_places 2 " + second_hash + " 1000 bytes api", "delete_places 3  api"}));
+  // Each names its token by id (the fixture's upload token is the second the server registered).
+  const std::string by = "token " + std::to_string(store.find_token(kUploadToken)->id);
+  EXPECT_EQ(uploads, (std::vector<std::string>{"put_places 2 " + first_hash + " 300000 bytes " + by,
+                                               "put_places 2 " + second_hash + " 1000 bytes " + by, "delete_places 3  " + by}));
   EXPECT_EQ(store.places("town", 2), second);
   EXPECT_FALSE(store.places("town", 3));
   EXPECT_TRUE(store.integrity_ok());
@@ -559,4 +561,44 @@ TEST(Server, UploadsAreRateLimitedPerTokenAndPushWaitsItOut) {
                          " --token " + kAdminToken + " 2>&1");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(body_json(http.get("/v1/maps/town"))["current_version"], 1);
+}
+
+// Rotation as an operator does it, with the server running throughout: a new token made with
+// pl-map token-add works at once, the old one revoked with pl-map token-revoke stops at once, and
+// the upload log names each upload's token by id.
+TEST(Server, TokensAreRotatedAndRevokedWithoutARestart) {
+  MapFixture f;
+  ServerProcess server(f.db, f.token_args());
+  HttpClient http(server.url());
+  const std::string pl_map = pl::test::tool("pl-map");
+  ASSERT_EQ(http.request("POST", "/v1/maps/town/versions", "", bearer(kUploadToken)).status, 201);
+  // The token alone on stdout (what to do with it goes to stderr).
+  auto made = pl::test::run("{ " + pl_map + " token-add --db " + f.db + " --role upload --note 'survey car 2' 2>/dev/null; }");
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  const std::string fresh = made.output.substr(0, made.output.find('\n'));
+  ASSERT_EQ(fresh.size(), 43u) << made.output;
+  ASSERT_EQ(http.request("POST", "/v1/maps/town/versions", "", bearer(fresh)).status, 201);
+  // The old token's id, from the list (which never shows a token).
+  auto list = pl::test::run(pl_map + " token-list --db " + f.db + " 2>&1");
+  ASSERT_EQ(list.exit_code, 0) << list.output;
+  EXPECT_EQ(list.output.find(kUploadToken), std::string::npos);
+  EXPECT_EQ(list.output.find(fresh), std::string::npos);
+  auto store = pl::store::Store::open(f.db, false);
+  const auto old_id = store.find_token(kUploadToken)->id, fresh_id = store.find_token(fresh)->id;
+  auto revoked = pl::test::run(pl_map + " token-revoke --db " + f.db + " --id " + std::to_string(old_id) + " 2>&1");
+  ASSERT_EQ(revoked.exit_code, 0) << revoked.output;
+  auto refused = http.request("POST", "/v1/maps/town/versions", "", bearer(kUploadToken));
+  EXPECT_EQ(refused.status, 401);
+  EXPECT_NE(refused.body.find("revoked"), std::string::npos) << refused.body;
+  EXPECT_EQ(http.request("POST", "/v1/maps/town/versions", "", bearer(fresh)).status, 201);
+  // Revoking twice says so.
+  auto again = pl::test::run(pl_map + " token-revoke --db " + f.db + " --id " + std::to_string(old_id) + " 2>&1");
+  EXPECT_NE(again.exit_code, 0);
+  EXPECT_NE(again.output.find("revoked already"), std::string::npos) << again.output;
+  // Who made each version: by token id.
+  std::vector<std::string> who;
+  for (const auto& e : store.upload_log("town"))
+    if (e.action == "create_version") who.push_back(e.who);
+  EXPECT_EQ(who, (std::vector<std::string>{"token " + std::to_string(old_id), "token " + std::to_string(fresh_id),
+                                           "token " + std::to_string(fresh_id)}));
 }

@@ -88,6 +88,9 @@ struct TileRecord {
 // Whether `db` names a PostgreSQL database (postgresql://... or postgres://...), not a SQLite file.
 bool is_postgres_url(std::string_view db);
 
+// A new bearer token: 32 random bytes (OpenSSL's RAND_bytes), base64url without padding (43 characters).
+std::string random_token();
+
 // SHA-256 of bytes, lowercase hex.
 std::string content_hash(std::string_view bytes);
 
@@ -169,10 +172,24 @@ class Store {
   std::optional<std::string> places(const std::string& map, std::int64_t version) const;
   std::optional<std::string> places_hash(const std::string& map, std::int64_t version) const;
 
-  // Tokens are stored hashed (SHA-256), never in plain; check_token returns the role of a known
-  // token. add_token throws pl::Error for an empty token or one that is already registered.
-  void add_token(const std::string& token, Role role, const std::string& note);
+  // Tokens are stored hashed (SHA-256), never in plain. add_token returns the new token's id and
+  // throws pl::Error for an empty token or one that is already registered (revoked or not).
+  // find_token answers a token in force (not revoked): it is looked up by its SHA-256, whose bytes
+  // tell nothing of the token's, and the stored hash is then compared in constant time
+  // (CRYPTO_memcmp). check_token is find_token's role. revoke_token takes a token out of force for
+  // every connection at once (false: no such id, or revoked already); list_tokens lists them all by
+  // id, revoked ones too, never a token itself.
+  struct TokenInfo {
+    std::int64_t id = 0;
+    Role role = Role::Read;
+    std::string note, created;           // created: UTC, ISO 8601
+    std::optional<std::string> revoked;  // when it was revoked; empty: in force
+  };
+  std::int64_t add_token(const std::string& token, Role role, const std::string& note);
+  std::optional<TokenInfo> find_token(const std::string& token) const;
   std::optional<Role> check_token(const std::string& token) const;
+  bool revoke_token(std::int64_t id);
+  std::vector<TokenInfo> list_tokens() const;
 
   // The append-only upload log (triggers refuse UPDATE and DELETE). `action` must not be empty;
   // upload_log(map) lists the map's entries oldest first.
