@@ -107,7 +107,8 @@ void add_tile(Tool& tool) {
                 maps::megabytes(r.bytes).c_str());
     if (r.places > 0) std::printf("%zu places for relocalization from %s\n", r.places, s->cfg.places.c_str());
     else std::printf("no places: the localizer can start and relocalize only near a given pose (pl-map build writes them)\n");
-    std::printf("publish it with: pl-map publish --db %s --map %s --version %lld\n", s->db.c_str(), s->map.c_str(), number);
+    std::printf("publish it with: pl-map publish --db %s --map %s --version %lld\n", pl::store::display_name(s->db).c_str(),
+                s->map.c_str(), number);
     return 0;
   });
   c.add_option("--cloud", s->cloud, "the cloud (.pcd, .ply or .bin), in the map's local ENU frame")->required()->type_name("FILE");
@@ -230,7 +231,7 @@ void add_token_commands(Tool& tool) {
   CLI::App& revoke = tool.command("token-revoke", "take a token out of force, at once for every server on the store", [s] {
     auto store = pl::store::Store::open(s->db, false);
     if (!store.revoke_token(s->id))
-      throw pl::Error("token " + std::to_string(s->id) + ": no such token, or revoked already (pl-map token-list --db " + s->db + ")");
+      throw pl::Error("token " + std::to_string(s->id) + ": no such token, or revoked already (pl-map token-list --db " + pl::store::display_name(s->db) + ")");
     std::printf("token %lld revoked\n", static_cast<long long>(s->id));
     return 0;
   });

@@ -1,6 +1,8 @@
 // pl-server: serves the map store over HTTP (see schema/openapi.yaml). The service is pl_server;
 // this is the command line.
 #include <cstdio>
+#include <ctime>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 
@@ -27,6 +29,25 @@ void parse_listen(const std::string& listen, pl::server::ServerConfig& cfg) {
   cfg.port = static_cast<std::uint16_t>(port);
 }
 
+bool log_json = false;
+
+// A line of the server's own (not a request's): plain "pl-server: MSG", or with --log-json a JSON
+// object with the time and level.
+void say(FILE* out, const char* level, const std::string& msg) {
+  if (log_json) {
+    const std::time_t t = std::time(nullptr);
+    char when[32];
+    std::strftime(when, sizeof(when), "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+    std::fprintf(out, "%s\n",
+                 nlohmann::json({{"time", when}, {"level", level}, {"msg", "pl-server: " + msg}})
+                     .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)
+                     .c_str());
+  } else {
+    std::fprintf(out, "pl-server: %s\n", msg.c_str());
+  }
+  std::fflush(out);
+}
+
 // Adds the "ROLE TOKEN" lines of `path` to the store (hashed), once each.
 void add_tokens(const std::string& db, const std::string& path) {
   auto store = pl::store::Store::open(db, false);
@@ -41,16 +62,17 @@ void add_tokens(const std::string& db, const std::string& path) {
     if (!store.check_token(token)) {
       try {
         store.add_token(token, *role, "from " + path);
-      } catch (const pl::Error&) {
+      } catch (const pl::Error& e) {
         // Registered already and not in force: revoked. The file does not bring it back.
-        std::fprintf(stderr, "pl-server: %s line %zu: this token was revoked (pl-map token-list): not in force; remove it from the file\n",
-                     path.c_str(), reader.line_number());
+        if (std::string(e.what()).find("already registered") == std::string::npos) throw;
+        say(stderr, "warning", path + " line " + std::to_string(reader.line_number()) +
+                                   ": this token was revoked (pl-map token-list): not in force; remove it from the file");
         continue;
       }
     }
     ++n;
   }
-  std::fprintf(stderr, "pl-server: %zu tokens from %s\n", n, path.c_str());
+  say(stderr, "info", std::to_string(n) + " tokens from " + path);
 }
 
 }  // namespace
@@ -79,9 +101,14 @@ int main(int argc, char** argv) {
   pl::cli::number(app, "--upload-burst", cfg.api.upload_burst, "... and at once", pl::cli::between(1, 1e9));
   pl::cli::number(app, "--cache-mb", cache_mb, "memory for tiles served often, MB", pl::cli::between(0, 1 << 20));
   app.add_flag("--quiet", quiet, "no access log");
+  app.add_flag("--log-json", cfg.api.log_json, "log as JSON lines (time, level, msg, request_id, ...) for a log collector");
+  app.set_config("--config", "", "a file of these options, one NAME = VALUE a line (TOML: db = \"/var/lib/pl/maps.sqlite\", "
+                 "threads = 4, quiet = true); options given on the command line win")
+      ->type_name("FILE");
   app.footer("SIGTERM or SIGINT: stop accepting, finish the requests in flight (10 s at most), exit 0.");
 
   tool.body([&] {
+    log_json = cfg.api.log_json;
     parse_listen(listen, cfg);
     cfg.api.blob_cache_bytes = cache_mb << 20;
     cfg.access_log = !quiet;
@@ -91,11 +118,12 @@ int main(int argc, char** argv) {
     std::string where;
     for (const auto& a : server.addresses()) where += (where.empty() ? "" : ", ") + a;
     const bool v6 = cfg.host.find(':') != std::string::npos;
-    std::printf("pl-server: listening on http://%s:%u (%s; %d threads, map store %s)\n", (v6 ? "[" + cfg.host + "]" : cfg.host).c_str(),
-                server.port(), where.c_str(), cfg.threads, cfg.api.db.c_str());
+    const std::string url = "http://" + (v6 ? "[" + cfg.host + "]" : cfg.host) + ":" + std::to_string(server.port());
+    say(stdout, "info", "listening on " + url + " (" + where + "; " + std::to_string(cfg.threads) + " threads, map store " +
+                            pl::store::display_name(cfg.api.db) + ")");
     std::fflush(stdout);
     server.run();
-    std::printf("pl-server: stopped\n");
+    say(stdout, "info", "stopped");
     return 0;
   });
   return tool.main(argc, argv);

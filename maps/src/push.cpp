@@ -32,9 +32,10 @@ json expect(const api::HttpResponse& r, std::initializer_list<int> ok, const std
 PushReport push_version(const PushOptions& o) {
   auto store = store::Store::open(o.db, false);
   auto map = store.find_map(o.map);
-  if (!map) throw Error(o.db + ": no map named \"" + o.map + "\"");
+  const std::string source_name = store::display_name(o.db);  // a database URL's password never in a message
+  if (!map) throw Error(source_name + ": no map named \"" + o.map + "\"");
   auto version = store.find_version(o.map, o.version);
-  if (!version) throw Error(o.db + ": map " + o.map + " has no version " + std::to_string(o.version));
+  if (!version) throw Error(source_name + ": map " + o.map + " has no version " + std::to_string(o.version));
   auto tiles = store.list_tiles(o.map, o.version);
 
   api::HttpOptions http_options;
@@ -74,7 +75,7 @@ PushReport push_version(const PushOptions& o) {
       std::abs(m["origin"]["lon"].get<double>() - map->origin.lon_deg) > 1e-9)
     throw Error("map " + o.map + " on " + o.server + " has another origin, tile size or voxel size than the local one: not pushing");
 
-  json note = {{"note", "pushed from " + o.db + " v" + std::to_string(o.version)}};
+  json note = {{"note", "pushed from " + source_name + " v" + std::to_string(o.version)}};
   json opened = expect(send("POST", base + "/versions", note.dump(), auth), {201}, "opening a version of " + o.map);
   PushReport r;
   r.remote_version = opened["version"].get<std::int64_t>();
@@ -93,7 +94,7 @@ PushReport push_version(const PushOptions& o) {
       ++r.skipped;
     } else {
       auto bytes = store.blob(t.hash);
-      if (!bytes) throw Error(o.db + ": the bytes of tile " + std::to_string(t.key.tx) + "/" + std::to_string(t.key.ty) + " are missing");
+      if (!bytes) throw Error(source_name + ": the bytes of tile " + std::to_string(t.key.tx) + "/" + std::to_string(t.key.ty) + " are missing");
       expect(send("PUT", vbase + "/tiles/" + std::to_string(t.key.tx) + "/" + std::to_string(t.key.ty), *bytes, auth), {200},
              "uploading tile " + std::to_string(t.key.tx) + "/" + std::to_string(t.key.ty));
       ++r.uploaded;
@@ -104,7 +105,8 @@ PushReport push_version(const PushOptions& o) {
   bar.finish();
   for (const auto& [key, hash] : have)
     if (!local.count(key)) {
-      expect(send("DELETE", vbase + "/tiles/" + std::to_string(key.tx) + "/" + std::to_string(key.ty), "", auth), {200},
+      // 404: gone already (a proxy may repeat a DELETE whose answer it lost).
+      expect(send("DELETE", vbase + "/tiles/" + std::to_string(key.tx) + "/" + std::to_string(key.ty), "", auth), {200, 404},
              "deleting tile " + std::to_string(key.tx) + "/" + std::to_string(key.ty));
       ++r.deleted;
     }

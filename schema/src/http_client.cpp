@@ -145,15 +145,21 @@ void HttpClient::disconnect() {
 
 void HttpClient::connect() {
   const auto timeout = std::chrono::milliseconds(static_cast<long>(options_.timeout_s * 1000));
+  // An IPv6 literal is written in brackets in the URL and the Host header, without them elsewhere.
+  const bool bracketed = host_.size() > 2 && host_.front() == '[' && host_.back() == ']';
+  const std::string name = bracketed ? host_.substr(1, host_.size() - 2) : host_;
   tcp::resolver resolver(impl_->ioc);
-  const auto endpoints = resolver.resolve(host_, port_);
+  const auto endpoints = resolver.resolve(name, port_);
   if (tls_) {
     impl_->secure = std::make_unique<beast::ssl_stream<beast::tcp_stream>>(impl_->ioc, *impl_->tls);
     // SNI, so that a server with several names shows the right certificate; then the check that the
     // certificate names this host (RFC 6125), on top of its chain to a trusted CA.
-    if (!SSL_set_tlsext_host_name(impl_->secure->native_handle(), host_.c_str()))
+    // (SNI carries names only, not address literals.)
+    beast::error_code literal;
+    net::ip::make_address(name, literal);
+    if (literal && !SSL_set_tlsext_host_name(impl_->secure->native_handle(), name.c_str()))
       throw beast::system_error(beast::error_code(static_cast<int>(::ERR_get_error()), net::error::get_ssl_category()));
-    impl_->secure->set_verify_callback(net::ssl::host_name_verification(host_));
+    impl_->secure->set_verify_callback(net::ssl::host_name_verification(name));
   } else {
     impl_->plain = std::make_unique<beast::tcp_stream>(impl_->ioc);
   }

@@ -67,11 +67,17 @@ class StoreBackend {
   virtual void commit_transaction(bool nested) = 0;
   virtual void rollback_transaction_quietly(bool nested) noexcept = 0;
 
+  // Whether the connection can still be used: false once a PostgreSQL server went away under it
+  // (a restart, a network cut); a SQLite file's connection always can.
+  virtual bool usable() const { return true; }
+
   virtual std::int64_t database_bytes() const = 0;
   virtual bool integrity_ok() const = 0;
 };
 
 std::unique_ptr<StoreBackend> open_sqlite(const std::string& path, bool create);
+// The URL as messages show it: a password in it as *** (store_pg.cpp).
+std::string redact_url(const std::string& url);
 // `url` is postgresql://... or postgres://... (store::is_postgres_url)
 std::unique_ptr<StoreBackend> open_postgres(const std::string& url, bool create);
 

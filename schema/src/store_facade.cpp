@@ -23,6 +23,8 @@ std::unique_ptr<detail::StoreBackend> detail::open_postgres(const std::string& u
 }
 #endif
 
+std::string display_name(const std::string& db) { return is_postgres_url(db) ? detail::redact_url(db) : db; }
+
 std::string random_token() {
   unsigned char bytes[32];
   if (RAND_bytes(bytes, sizeof(bytes)) != 1) throw Error("cannot make a token: OpenSSL's RAND_bytes failed");
@@ -142,6 +144,7 @@ Store::Transaction::~Transaction() {
 }
 
 std::int64_t Store::database_bytes() const { return impl().database_bytes(); }
+bool Store::usable() const { return impl_ && impl_->usable(); }
 bool Store::integrity_ok() const { return impl().integrity_ok(); }
 
 }  // namespace pl::store

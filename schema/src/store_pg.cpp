@@ -284,9 +284,22 @@ static void no_reconnecting(pqxx::connection& c) { c.inhibit_reactivation(true);
 
 namespace {
 
+// A server that does not answer (a host cut off, a firewall dropping packets) would hold a connect
+// for minutes of TCP retries, and a dead peer an idle connection for hours: bounded unless the URL
+// says otherwise (libpq's connect_timeout, TCP keepalives).
+std::string with_timeouts(std::string url) {
+  for (const char* p : {"connect_timeout=5", "keepalives_idle=30", "keepalives_interval=10", "keepalives_count=3"}) {
+    const std::string key = std::string(p).substr(0, std::string(p).find('=') + 1);
+    if (url.find(key) != std::string::npos) continue;
+    url += (url.find('?') == std::string::npos ? "?" : "&");
+    url += p;
+  }
+  return url;
+}
+
 std::unique_ptr<pqxx::connection> connect(const std::string& url, const std::string& name, bool create) {
   try {
-    return std::make_unique<pqxx::connection>(url);
+    return std::make_unique<pqxx::connection>(with_timeouts(url));
   } catch (const std::exception& e) {
     throw Error(name + ": cannot connect to the map store database: " + trimmed(e.what()) +
                 (create ? "" : " (does the database exist, and is the server running?)"));

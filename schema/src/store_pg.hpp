@@ -74,6 +74,7 @@ class PgStore final : public StoreBackend {
   std::optional<std::string> places(const std::string& map, std::int64_t version) const override;
   std::optional<std::string> places_hash(const std::string& map, std::int64_t version) const override;
 
+  bool usable() const override { return conn_->is_open(); }
   std::int64_t add_token(const std::string& token, Role role, const std::string& note) override;
   std::optional<std::pair<Store::TokenInfo, std::string>> token_by_hash(const std::string& hash) const override;
   bool revoke_token(std::int64_t id) override;

@@ -76,17 +76,28 @@ class MapRows {
  public:
   static constexpr std::chrono::milliseconds kFresh{250};
 
-  template <typename Read>
-  std::optional<store::MapInfo> get(const std::string& name, Read read) {
+  // `read` reads the row from the store; when it fails because the store is out of reach
+  // (`unreachable()` says so), the last row read is used, however old: published versions never
+  // change, so the answers stay right, only a publish made meanwhile is not seen yet.
+  template <typename Read, typename Unreachable>
+  std::optional<store::MapInfo> get(const std::string& name, Read read, Unreachable unreachable) {
     const auto now = std::chrono::steady_clock::now();
     std::uint64_t gen;
+    std::optional<store::MapInfo> stale;
     {
       std::shared_lock lock(mutex_);
       auto it = rows_.find(name);
       if (it != rows_.end() && now - it->second.read_at < kFresh) return it->second.row;
+      if (it != rows_.end()) stale = it->second.row;
       gen = generation_;
     }
-    std::optional<store::MapInfo> row = read();
+    std::optional<store::MapInfo> row;
+    try {
+      row = read();
+    } catch (...) {
+      if (stale && unreachable()) return stale;
+      throw;
+    }
     std::unique_lock lock(mutex_);
     // A drop() while this read ran may have made it stale: keep it only when none came between.
     if (row && gen == generation_) {
@@ -110,6 +121,11 @@ class MapRows {
   std::shared_mutex mutex_;
   std::unordered_map<std::string, Entry> rows_;
   std::uint64_t generation_ = 0;
+};
+
+// The map store cannot be reached (a PostgreSQL server restarting or cut off): 503, retry.
+struct StoreUnreachable : Error {
+  using Error::Error;
 };
 
 }  // namespace
@@ -153,16 +169,37 @@ struct Api::Impl {
 
   Impl(ApiConfig c, Metrics& m) : cfg(std::move(c)), metrics(m), blobs(cfg.blob_cache_bytes) {}
 
-  // One store connection per thread (SQLite connections must not be shared across threads).
-  store::Store& db() {
+  // One store connection per thread (SQLite connections must not be shared across threads). A
+  // PostgreSQL connection whose server went away (a restart, a network cut) is replaced at the next
+  // call; while no new one can be made, calls throw StoreUnreachable (answered 503, retry).
+  static std::unique_ptr<store::Store>& thread_conn() {
     thread_local std::unique_ptr<store::Store> conn;
+    return conn;
+  }
+  store::Store& db() {
     thread_local std::string conn_path;
-    if (!conn || conn_path != cfg.db) {
-      conn = std::make_unique<store::Store>(store::Store::open(cfg.db, false));
+    // After a failed connect, this thread does not dial again for a second: requests meanwhile are
+    // answered at once (503) instead of each waiting for a connect timeout.
+    thread_local std::chrono::steady_clock::time_point retry_at{};
+    thread_local std::string last_failure;
+    auto& conn = thread_conn();
+    if (!conn || conn_path != cfg.db || !conn->usable()) {
+      conn.reset();
+      if (std::chrono::steady_clock::now() < retry_at) throw StoreUnreachable(last_failure);
+      try {
+        conn = std::make_unique<store::Store>(store::Store::open(cfg.db, false));
+      } catch (const Error& e) {
+        if (!store::is_postgres_url(cfg.db)) throw;
+        retry_at = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+        last_failure = e.what();
+        throw StoreUnreachable(last_failure);
+      }
       conn_path = cfg.db;
     }
     return *conn;
   }
+  // After a failed call: whether it failed because the store went away under this thread's connection.
+  static bool store_lost() { return thread_conn() && !thread_conn()->usable(); }
 
   // The request's token, looked up in the store each time: a token added or revoked (pl-map token)
   // counts at the next request, on every replica, without a restart.
@@ -178,12 +215,8 @@ struct Api::Impl {
     auto token = token_of(req);
     return token ? std::optional<store::Role>(token->role) : std::nullopt;
   }
-  // Who the upload log names for a write: its token's id (never the token).
-  std::string who(const ApiRequest& req) {
-    auto token = token_of(req);
-    return token ? "token " + std::to_string(token->id) : "api";
-  }
-  void require_role(const ApiRequest& req, store::Role needed) {
+  // Returns who the upload log names for the request: its token's id ("token 7", never the token).
+  std::string require_role(const ApiRequest& req, store::Role needed) {
     // Before the token is looked at: a token sent in clear over a network is to be rotated anyway.
     if (static_cast<int>(needed) >= static_cast<int>(store::Role::Upload) && !req.from_loopback && !cfg.plain_uploads)
       fail(403, "uploads over plain HTTP are taken only from this machine: send them over HTTPS through the TLS proxy "
@@ -202,6 +235,7 @@ struct Api::Impl {
                         {{"Retry-After", after}}};
       }
     }
+    return "token " + std::to_string(token->id);
   }
   // Readers: a token is needed only with --read-token-required. Returns whether staged versions show.
   bool check_reader(const ApiRequest& req) {
@@ -231,7 +265,7 @@ struct Api::Impl {
   }
 
   ApiResponse create_map(const ApiRequest& req) {
-    require_role(req, store::Role::Admin);
+    const std::string by = require_role(req, store::Role::Admin);
     json j;
     try {
       j = json::parse(req.body);
@@ -243,12 +277,14 @@ struct Api::Impl {
       if (std::abs(origin.lat_deg) > 90 || std::abs(origin.lon_deg) > 180) fail(400, "origin lat must be in [-90, 90] and lon in [-180, 180]");
       if (db().find_map(name)) fail(409, "a map named \"" + name + "\" exists already");
       store::MapInfo m;
+      store::Store::Transaction tx(db());  // the change and its log entry together
       try {
         m = db().create_map(name, origin, tile, voxel);
       } catch (const Error& e) {
         fail(400, e.what());
       }
-      db().log_upload(name, std::nullopt, "create_map", req.body, who(req));
+      db().log_upload(name, std::nullopt, "create_map", req.body, by);
+      tx.commit();
       return json_response(201, {{"name", m.name}, {"tile_size", m.tile_size}, {"voxel_size", m.voxel_size}}, "/v1/maps");
     } catch (const json::exception& e) {
       fail(400, std::string("expected JSON {\"name\", \"origin\": {\"lat\", \"lon\", \"alt\"}, \"tile_size\", \"voxel_size\"}: ") + e.what());
@@ -285,7 +321,15 @@ struct Api::Impl {
 
   ApiResponse roi(const ApiRequest& req, const std::string& name, const Target& t) {
     bool staged = check_reader(req);
-    auto found = map_rows.get(name, [&] { return db().find_map(name); });
+    auto found = map_rows.get(name, [&] { return db().find_map(name); }, [] {
+      try {
+        throw;
+      } catch (const StoreUnreachable&) {
+        return true;
+      } catch (...) {
+        return store_lost();
+      }
+    });
     if (!found) fail(404, "no map named \"" + name + "\"");
     const store::MapInfo& m = *found;
     double x = query_number(t, "x", true, 0), y = query_number(t, "y", true, 0), r = query_number(t, "radius", true, 0);
@@ -448,19 +492,20 @@ struct Api::Impl {
     return r;
   }
 
-  store::VersionInfo need_staged(const ApiRequest& req, const std::string& name, const std::string& vs) {
-    require_role(req, store::Role::Upload);
+  // The staged version a write goes to, and who writes (require_role's).
+  std::pair<store::VersionInfo, std::string> need_staged(const ApiRequest& req, const std::string& name, const std::string& vs) {
+    std::string by = require_role(req, store::Role::Upload);
     auto m = need_map(name);
     auto info = need_version(m, parse_version(vs), true);
     if (info.state != store::VersionState::Staged)
       fail(409, "map " + name + " version " + std::to_string(info.number) + " is " + store::state_name(info.state) +
                     ": open a new version with POST /v1/maps/" + name + "/versions");
-    return info;
+    return {info, by};
   }
 
   ApiResponse put_tile(const ApiRequest& req, const std::string& name, const std::string& vs, const std::string& txs, const std::string& tys) {
     const std::string route = "/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}";
-    auto info = need_staged(req, name, vs);
+    auto [info, by] = need_staged(req, name, vs);
     TileKey key{parse_tile_index(txs), parse_tile_index(tys)};
     auto m = need_map(name);
     TileUpload up;
@@ -469,18 +514,22 @@ struct Api::Impl {
     } catch (const Error& e) {
       fail(422, e.what());
     }
+    store::Store::Transaction tx(db());  // the change and its log entry together
     auto rec = db().put_tile(name, info.number, key, req.body, static_cast<std::int64_t>(up.points), up.min[0], up.min[1], up.min[2],
                              up.max[0], up.max[1], up.max[2]);
-    db().log_upload(name, info.number, "put_tile", std::to_string(key.tx) + "/" + std::to_string(key.ty) + " " + rec.hash, who(req));
+    db().log_upload(name, info.number, "put_tile", std::to_string(key.tx) + "/" + std::to_string(key.ty) + " " + rec.hash, by);
+    tx.commit();
     return json_response(200, {{"tx", key.tx}, {"ty", key.ty}, {"hash", rec.hash}, {"points", rec.points}, {"bytes", rec.bytes}}, route);
   }
 
   ApiResponse put_places(const ApiRequest& req, const std::string& name, const std::string& vs) {
-    auto info = need_staged(req, name, vs);
+    auto [info, by] = need_staged(req, name, vs);
     if (req.body.empty()) fail(422, "the body is empty: PUT the places file that pl-map build wrote (1 byte to 64 MiB)");
+    store::Store::Transaction tx(db());
     db().put_places(name, info.number, req.body);
     const std::string hash = store::content_hash(req.body);
-    db().log_upload(name, info.number, "put_places", hash + " " + std::to_string(req.body.size()) + " bytes", who(req));
+    db().log_upload(name, info.number, "put_places", hash + " " + std::to_string(req.body.size()) + " bytes", by);
+    tx.commit();
     return json_response(200, {{"version", info.number}, {"hash", hash}, {"bytes", req.body.size()}},
                          "/v1/maps/{map}/versions/{v}/places");
   }
@@ -488,22 +537,26 @@ struct Api::Impl {
   // A staged version starts with a copy of its parent's places: an upload of a map without places
   // removes them.
   ApiResponse delete_places(const ApiRequest& req, const std::string& name, const std::string& vs) {
-    auto info = need_staged(req, name, vs);
+    auto [info, by] = need_staged(req, name, vs);
+    store::Store::Transaction tx(db());
     if (!db().delete_places(name, info.number)) fail(404, "map " + name + " version " + std::to_string(info.number) + " has no places");
-    db().log_upload(name, info.number, "delete_places", "", who(req));
+    db().log_upload(name, info.number, "delete_places", "", by);
+    tx.commit();
     return json_response(200, {{"deleted", true}}, "/v1/maps/{map}/versions/{v}/places");
   }
 
   ApiResponse delete_tile(const ApiRequest& req, const std::string& name, const std::string& vs, const std::string& txs, const std::string& tys) {
-    auto info = need_staged(req, name, vs);
+    auto [info, by] = need_staged(req, name, vs);
     TileKey key{parse_tile_index(txs), parse_tile_index(tys)};
+    store::Store::Transaction tx(db());
     if (!db().delete_tile(name, info.number, key)) fail(404, "version " + std::to_string(info.number) + " has no tile " + txs + "/" + tys);
-    db().log_upload(name, info.number, "delete_tile", txs + "/" + tys, who(req));
+    db().log_upload(name, info.number, "delete_tile", txs + "/" + tys, by);
+    tx.commit();
     return json_response(200, {{"deleted", true}}, "/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}");
   }
 
   ApiResponse create_version(const ApiRequest& req, const std::string& name) {
-    require_role(req, store::Role::Upload);
+    const std::string by = require_role(req, store::Role::Upload);
     need_map(name);
     std::string note;
     if (!req.body.empty()) {
@@ -513,17 +566,21 @@ struct Api::Impl {
         fail(400, std::string("expected an optional JSON body {\"note\": \"...\"}: ") + e.what());
       }
     }
+    store::Store::Transaction tx(db());
     auto v = db().create_version(name, std::nullopt, note);
-    db().log_upload(name, v.number, "create_version", note, who(req));
+    db().log_upload(name, v.number, "create_version", note, by);
+    tx.commit();
     return json_response(201, {{"version", v.number}, {"parent", v.parent ? json(*v.parent) : json(nullptr)}, {"state", "staged"}},
                          "/v1/maps/{map}/versions");
   }
 
   ApiResponse publish(const ApiRequest& req, const std::string& name, const std::string& vs) {
-    auto info = need_staged(req, name, vs);
+    auto [info, by] = need_staged(req, name, vs);
+    store::Store::Transaction tx(db());
     db().publish(name, info.number);
+    db().log_upload(name, info.number, "publish", "", by);
+    tx.commit();
     map_rows.drop(name);
-    db().log_upload(name, info.number, "publish", "", who(req));
     return json_response(200, {{"version", info.number}, {"state", "published"}}, "/v1/maps/{map}/versions/{v}/publish");
   }
 
@@ -550,7 +607,13 @@ struct Api::Impl {
       if (only(get, route, kReadOnly)) return options(kReadOnly);
       if (s[0] == "healthz") return text(200, "ok\n", route);
       if (s[0] == "readyz") return api.ready() ? text(200, "ready\n", route) : text(503, "not ready\n", route);
-      ApiResponse r = text(200, metrics.render(db().database_bytes()), route);
+      // The store's size when it answers (-1 while it is out of reach: the rest still renders).
+      std::int64_t bytes = -1;
+      try {
+        bytes = db().database_bytes();
+      } catch (...) {
+      }
+      ApiResponse r = text(200, metrics.render(bytes), route);
       r.content_type = "text/plain; version=0.0.4";
       return r;
     }
@@ -621,10 +684,12 @@ Api::Api(ApiConfig cfg, Metrics& metrics) : impl_(std::make_unique<Impl>(std::mo
 
 Api::~Api() = default;
 
+// Ready: not draining, and the store answers a query (the schema version: a read of the store
+// itself on both engines, not of any map).
 bool Api::ready() {
   if (draining_) return false;
   try {
-    impl_->db().find_map("");
+    impl_->db().schema_version();
     return true;
   } catch (...) {
     return false;
@@ -680,8 +745,42 @@ ApiResponse Api::handle(const ApiRequest& req) {
     }
     return r;
   } catch (...) {
-    // Anything unexpected (a store failure, a bug, memory): a 500 for this request only, logged
-    // with the request id; the server goes on serving.
+    // The store out of reach (its server restarting): 503 with Retry-After, which clients and
+    // caches retry; nothing was written (a write's transaction did not commit).
+    std::string unreachable;
+    try {
+      throw;
+    } catch (const StoreUnreachable& e) {
+      unreachable = e.what();
+    } catch (const std::exception& e) {
+      if (Impl::store_lost()) unreachable = e.what();
+    } catch (...) {
+    }
+    if (!unreachable.empty()) {
+      // The details (the store's address, the driver's words) go to the log, not to the client.
+      if (impl_->cfg.log_json)
+        std::fprintf(stderr, "%s\n",
+                     json({{"level", "warning"}, {"msg", "the map store is unreachable"}, {"request_id", printable(req.request_id)},
+                           {"method", printable(req.method)}, {"target", printable(req.target)}, {"error", printable(unreachable)}})
+                         .dump(-1, ' ', false, json::error_handler_t::replace)
+                         .c_str());
+      else
+        std::fprintf(stderr, "pl-server: request %s \"%s %s\": the map store is unreachable: %s\n", printable(req.request_id).c_str(),
+                     printable(req.method).c_str(), printable(req.target).c_str(), printable(unreachable).c_str());
+      std::fflush(stderr);
+      const bool read = req.method == "GET" || req.method == "HEAD";
+      ApiResponse e = json_response(
+          503,
+          {{"error", std::string("the map store is unreachable just now: retry in a second") +
+                         (read ? "" : " (a change whose answer this is was not made, unless the store lost contact while committing it: "
+                                      "read back before repeating one that is not idempotent, such as opening a version)")},
+           {"status", 503}},
+          route_template(req.target));
+      e.headers.emplace_back("Retry-After", "1");
+      return e;
+    }
+    // Anything else unexpected (a store failure, a bug, memory): a 500 for this request only,
+    // logged with the request id; the server goes on serving.
     std::string what = "unknown exception";
     try {
       throw;
@@ -689,8 +788,15 @@ ApiResponse Api::handle(const ApiRequest& req) {
       what = e.what();
     } catch (...) {
     }
-    std::fprintf(stderr, "pl-server: request %s \"%s %s\": internal error: %s\n", printable(req.request_id).c_str(),
-                 printable(req.method).c_str(), printable(req.target).c_str(), printable(what).c_str());
+    if (impl_->cfg.log_json)
+      std::fprintf(stderr, "%s\n",
+                   json({{"level", "error"}, {"msg", "internal error"}, {"request_id", printable(req.request_id)},
+                         {"method", printable(req.method)}, {"target", printable(req.target)}, {"error", printable(what)}})
+                       .dump(-1, ' ', false, json::error_handler_t::replace)
+                       .c_str());
+    else
+      std::fprintf(stderr, "pl-server: request %s \"%s %s\": internal error: %s\n", printable(req.request_id).c_str(),
+                   printable(req.method).c_str(), printable(req.target).c_str(), printable(what).c_str());
     std::fflush(stderr);
     ApiResponse e;
     e.status = 500;

@@ -10,6 +10,8 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
+#include <nlohmann/json.hpp>
 #include <csignal>
 #include <random>
 #include <fcntl.h>
@@ -48,6 +50,20 @@ std::string utc_now() {
   char buf[32];
   std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
   return buf;
+}
+
+// UTC ISO 8601 with milliseconds, as the store writes timestamps: for JSON log lines.
+std::string utc_now_ms() {
+  const auto now = std::chrono::system_clock::now();
+  const std::time_t t = std::chrono::system_clock::to_time_t(now);
+  const long ms = static_cast<long>(std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[40];
+  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%S", &tm);
+  char out[48];
+  std::snprintf(out, sizeof(out), "%s.%03ldZ", buf, ms);
+  return out;
 }
 
 // RFC 9110's IMF-fixdate, for the Date header of every response: formatted once a second per
@@ -273,9 +289,20 @@ struct Server::Impl {
       std::size_t bytes = head ? 0 : size;
       server_.metrics.observe(r.route.empty() ? "other" : r.route, r.status, seconds, bytes);
       if (server_.cfg.access_log) {
+        std::string line;
+        if (server_.cfg.api.log_json) {
+          nlohmann::json j = {{"time", utc_now_ms()}, {"level", "info"},       {"msg", "request"},
+                              {"request_id", request_id_}, {"remote", remote_}, {"method", printable(method, 32)},
+                              {"target", printable(target)}, {"status", r.status}, {"bytes", bytes},
+                              {"ms", std::round(seconds * 1e6) / 1e3}};
+          line = j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+        } else {
+          char tail[96];
+          std::snprintf(tail, sizeof(tail), "\" %d %zu %.3fms\n", r.status, bytes, seconds * 1000.0);
+          line = utc_now() + " " + remote_ + " " + request_id_ + " \"" + printable(method, 32) + " " + printable(target) + tail;
+        }
         std::lock_guard<std::mutex> lock(log_mutex);
-        std::fprintf(stdout, "%s %s %s \"%s %s\" %d %zu %.3fms\n", utc_now().c_str(), remote_.c_str(), request_id_.c_str(),
-                     printable(method, 32).c_str(), printable(target).c_str(), r.status, bytes, seconds * 1000.0);
+        std::fputs(line.c_str(), stdout);
         std::fflush(stdout);
       }
       auto fill = [&](auto& res) {

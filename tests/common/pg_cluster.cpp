@@ -143,19 +143,32 @@ void PgCluster::start() {
   // The port is free when picked; another process may take it before the server binds it: retried.
   for (int attempt = 0; attempt < 5; ++attempt) {
     port_ = free_port();
-    const std::string options = "-p " + std::to_string(port_) + " -k " + dir_ +
-                                " -c listen_addresses=127.0.0.1 -c fsync=off -c synchronous_commit=off "
-                                "-c full_page_writes=off -c max_connections=200";
-    Output ctl = run(as_user_ + bindir_ + "/pg_ctl -D " + data + " -l " + dir_ + "/server.log -w -t 60 -o \"" +
-                     options + "\" start");
-    if (ctl.status == 0) {
-      running_ = true;
-      return;
-    }
-    if (attempt == 4)
-      throw std::runtime_error("the PostgreSQL test cluster did not start:\n" + ctl.text + "\n" +
-                               file_text(dir_ + "/server.log"));
+    std::string problem = start_server();
+    if (problem.empty()) return;
+    if (attempt == 4) throw std::runtime_error("the PostgreSQL test cluster did not start:\n" + problem);
   }
+}
+
+std::string PgCluster::start_server() {
+  const std::string options = "-p " + std::to_string(port_) + " -k " + dir_ +
+                              " -c listen_addresses=127.0.0.1 -c fsync=off -c synchronous_commit=off "
+                              "-c full_page_writes=off -c max_connections=200";
+  Output ctl = run(as_user_ + bindir_ + "/pg_ctl -D " + dir_ + "/data -l " + dir_ + "/server.log -w -t 60 -o \"" + options +
+                   "\" start");
+  if (ctl.status != 0) return ctl.text + "\n" + file_text(dir_ + "/server.log");
+  running_ = true;
+  return "";
+}
+
+void PgCluster::pause() {
+  Output ctl = run(as_user_ + bindir_ + "/pg_ctl -D " + dir_ + "/data -m fast -w -t 60 stop");
+  if (ctl.status != 0) throw std::runtime_error("the PostgreSQL test cluster did not stop:\n" + ctl.text);
+  running_ = false;
+}
+
+void PgCluster::resume() {
+  const std::string problem = start_server();
+  if (!problem.empty()) throw std::runtime_error("the PostgreSQL test cluster did not start again:\n" + problem);
 }
 
 void PgCluster::stop() noexcept {

@@ -27,6 +27,11 @@ class PgCluster {
   // The URL of a database of the cluster, existing or not.
   std::string url(const std::string& database) const;
 
+  // Stops the server (the databases stay), then starts it again on the same port: a restart as an
+  // operator, an upgrade or a crash makes one. Throws std::runtime_error when either fails.
+  void pause();
+  void resume();
+
   const std::string& user() const { return user_; }
   int port() const { return port_; }
 
@@ -37,6 +42,7 @@ class PgCluster {
  private:
   PgCluster();
   void start();
+  std::string start_server();  // "" when started, else what went wrong
   void stop() noexcept;
 
   std::string bindir_, dir_, user_, as_user_;  // as_user_: "runuser -u postgres -- " as root, else ""

@@ -532,8 +532,11 @@ TEST(Server, RoiAnswersFollowPublishesByTheServerAndByAnotherWriter) {
        std::this_thread::sleep_for(std::chrono::milliseconds(20)))
     seen = body_json(http.get(roi))["version"].get<long long>();
   EXPECT_EQ(seen, 3);
-  // An unknown map is never cached as missing.
-  EXPECT_EQ(http.get("/v1/maps/nowhere/roi?x=0&y=0&radius=1").status, 404);
+  // An unknown map is never cached as missing: once made, its next query knows it.
+  const std::string nowhere = "/v1/maps/nowhere/roi?x=0&y=0&radius=1";
+  EXPECT_NE(http.get(nowhere).body.find("no map named"), std::string::npos);
+  ASSERT_EQ(http.request("POST", "/v1/maps", R"({"name": "nowhere", "origin": {"lat": 49, "lon": 8.4}})", bearer(pl::test::kAdminToken)).status, 201);
+  EXPECT_NE(http.get(nowhere).body.find("no published version"), std::string::npos);
 }
 
 // Each token's uploads are limited (429 with Retry-After beyond); pl-map push waits as told and

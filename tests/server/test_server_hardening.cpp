@@ -271,6 +271,9 @@ TEST(ServerHardening, ListensOnIpv6) {
   std::string r = exchange(server.port(), "GET /healthz HTTP/1.1\r\nHost: [::1]\r\nConnection: close\r\n\r\n", false, 10.0, nullptr, true);
   EXPECT_EQ(status_of(r), 200) << r;
   EXPECT_EQ(body_of(r), "ok\n");
+  // The HTTP client takes the address in brackets, as URLs write it.
+  HttpClient http("http://[::1]:" + std::to_string(server.port()));
+  EXPECT_EQ(http.get("/healthz").status, 200);
   // A bare IPv6 address without brackets is refused with the syntax to use.
   auto bad = pl::test::run(pl::test::tool("pl-server") + " --db " + f.db + " --listen ::1:0");
   EXPECT_NE(bad.exit_code, 0);

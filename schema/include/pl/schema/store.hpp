@@ -88,6 +88,9 @@ struct TileRecord {
 // Whether `db` names a PostgreSQL database (postgresql://... or postgres://...), not a SQLite file.
 bool is_postgres_url(std::string_view db);
 
+// What messages and logs call a store: the file's path, or the URL with any password as ***.
+std::string display_name(const std::string& db);
+
 // A new bearer token: 32 random bytes (OpenSSL's RAND_bytes), base64url without padding (43 characters).
 std::string random_token();
 
@@ -219,6 +222,10 @@ class Store {
     bool done_ = false;
     bool nested_ = false;  // a SAVEPOINT inside an already open transaction (else BEGIN IMMEDIATE)
   };
+
+  // Whether this connection can still be used: false once the PostgreSQL server it talked to went
+  // away (restarted, unreachable): open a new Store then. Always true on SQLite.
+  bool usable() const;
 
   // SQLite: page_count * page_size; PostgreSQL: pg_database_size of the database.
   std::int64_t database_bytes() const;

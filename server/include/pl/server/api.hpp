@@ -26,6 +26,9 @@ TileUpload check_tile_upload(std::string_view bytes, double tile_size, const Til
 
 struct ApiConfig {
   std::string db;
+  // Logs as JSON lines (one object a line: time, level, msg, request_id, ...) for a log collector;
+  // else the plain lines below.
+  bool log_json = false;
   bool read_token_required = false;
   std::size_t blob_cache_bytes = 256u << 20;  // immutable tiles and places kept in memory, by content hash
   // pl-server speaks plain HTTP (TLS ends in a proxy: deploy/nginx): requests that need the upload
