@@ -123,6 +123,21 @@ class MapRows {
   std::uint64_t generation_ = 0;
 };
 
+// A request's problem on stderr, with its id: "pl-server: request ID "METHOD TARGET": WHAT: DETAIL",
+// or with --log-json one JSON object.
+void log_request_problem(bool as_json, const char* level, const char* what, const ApiRequest& req, const std::string& detail) {
+  if (as_json)
+    std::fprintf(stderr, "%s\n",
+                 json({{"level", level}, {"msg", what}, {"request_id", printable(req.request_id)}, {"method", printable(req.method)},
+                       {"target", printable(req.target)}, {"error", printable(detail)}})
+                     .dump(-1, ' ', false, json::error_handler_t::replace)
+                     .c_str());
+  else
+    std::fprintf(stderr, "pl-server: request %s \"%s %s\": %s: %s\n", printable(req.request_id).c_str(), printable(req.method).c_str(),
+                 printable(req.target).c_str(), what, printable(detail).c_str());
+  std::fflush(stderr);
+}
+
 // The map store cannot be reached (a PostgreSQL server restarting or cut off): 503, retry.
 struct StoreUnreachable : Error {
   using Error::Error;
@@ -758,16 +773,7 @@ ApiResponse Api::handle(const ApiRequest& req) {
     }
     if (!unreachable.empty()) {
       // The details (the store's address, the driver's words) go to the log, not to the client.
-      if (impl_->cfg.log_json)
-        std::fprintf(stderr, "%s\n",
-                     json({{"level", "warning"}, {"msg", "the map store is unreachable"}, {"request_id", printable(req.request_id)},
-                           {"method", printable(req.method)}, {"target", printable(req.target)}, {"error", printable(unreachable)}})
-                         .dump(-1, ' ', false, json::error_handler_t::replace)
-                         .c_str());
-      else
-        std::fprintf(stderr, "pl-server: request %s \"%s %s\": the map store is unreachable: %s\n", printable(req.request_id).c_str(),
-                     printable(req.method).c_str(), printable(req.target).c_str(), printable(unreachable).c_str());
-      std::fflush(stderr);
+      log_request_problem(impl_->cfg.log_json, "warning", "the map store is unreachable", req, unreachable);
       const bool read = req.method == "GET" || req.method == "HEAD";
       ApiResponse e = json_response(
           503,
@@ -788,16 +794,7 @@ ApiResponse Api::handle(const ApiRequest& req) {
       what = e.what();
     } catch (...) {
     }
-    if (impl_->cfg.log_json)
-      std::fprintf(stderr, "%s\n",
-                   json({{"level", "error"}, {"msg", "internal error"}, {"request_id", printable(req.request_id)},
-                         {"method", printable(req.method)}, {"target", printable(req.target)}, {"error", printable(what)}})
-                       .dump(-1, ' ', false, json::error_handler_t::replace)
-                       .c_str());
-    else
-      std::fprintf(stderr, "pl-server: request %s \"%s %s\": internal error: %s\n", printable(req.request_id).c_str(),
-                   printable(req.method).c_str(), printable(req.target).c_str(), printable(what).c_str());
-    std::fflush(stderr);
+    log_request_problem(impl_->cfg.log_json, "error", "internal error", req, what);
     ApiResponse e;
     e.status = 500;
     e.body = "{\"error\":\"internal error: see the server log for request " + printable(req.request_id, 64) + "\",\"status\":500}\n";

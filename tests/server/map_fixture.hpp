@@ -28,10 +28,11 @@ inline pl::Points3d street_cloud() {
 
 struct MapFixture {
   TempDir dir;
-  std::string db = dir / "maps.sqlite";
+  std::string db;
   pl::Points3d cloud = street_cloud();
 
-  MapFixture() {
+  // In a SQLite file of its own, or in the database `db_url` names (an empty PostgreSQL one).
+  explicit MapFixture(const std::string& db_url = "") : db(db_url.empty() ? dir / "maps.sqlite" : db_url) {
     pl::write_pcd(dir / "street.pcd", cloud, std::vector<float>(cloud.size(), 0.5f), pl::GeoPoint{49.0, 8.4, 110.0});
     auto r = pl::test::run(pl::test::tool("pl-map") + " tile --cloud " + (dir / "street.pcd") + " --db " + db + " --map town");
     if (r.exit_code != 0) throw std::runtime_error(r.output);

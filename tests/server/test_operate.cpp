@@ -133,16 +133,9 @@ TEST(Operate, MetricsNameTheBuildAndTheProcess) {
 // not half done), and once PostgreSQL is back the same write succeeds: nothing lost.
 TEST(Operate, APostgresRestartIsRiddenOutAndWritesSucceedWhenRetried) {
   auto& cluster = pl::test::PgCluster::get();
-  const std::string db = cluster.new_database();
-  TempDir dir;
-  const pl::Points3d cloud = pl::test::street_cloud();
-  pl::write_pcd(dir / "street.pcd", cloud, std::vector<float>(cloud.size(), 0.5f), pl::GeoPoint{49.0, 8.4, 110.0});
-  auto r = pl::test::run(pl::test::tool("pl-map") + " tile --cloud " + (dir / "street.pcd") + " --db '" + db + "' --map town");
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  r = pl::test::run(pl::test::tool("pl-map") + " publish --db '" + db + "' --map town --version 1");
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  pl::test::write_file(dir / "tokens.txt", "upload " + pl::test::kUploadToken + "\n");
-  ServerProcess server(db, {"--tokens", dir / "tokens.txt"});
+  MapFixture f(cluster.new_database());
+  const std::string& db = f.db;
+  ServerProcess server(db, f.token_args());
   HttpClient http(server.url());
   const std::string roi = "/v1/maps/town/roi?x=10&y=10&radius=30";
   const std::string before = http.get(roi).body;

@@ -27,17 +27,9 @@ std::map<std::string, std::string> bearer(const std::string& token) { return {{"
 }  // namespace
 
 TEST(ServerOnPostgres, ReplicasServeOneDatabaseAndSeeEachOthersPublishes) {
-  const std::string db = pl::test::PgCluster::get().new_database();
-  TempDir dir;
-  const pl::Points3d cloud = pl::test::street_cloud();
-  pl::write_pcd(dir / "street.pcd", cloud, std::vector<float>(cloud.size(), 0.5f), pl::GeoPoint{49.0, 8.4, 110.0});
-  auto r = pl::test::run(pl::test::tool("pl-map") + " tile --cloud " + (dir / "street.pcd") + " --db '" + db + "' --map town 2>&1");
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  r = pl::test::run(pl::test::tool("pl-map") + " publish --db '" + db + "' --map town --version 1 2>&1");
-  ASSERT_EQ(r.exit_code, 0) << r.output;
-  pl::test::write_file(dir / "tokens.txt", "upload " + pl::test::kUploadToken + "\n");
-
-  ServerProcess a(db, {"--tokens", dir / "tokens.txt"}), b(db);
+  pl::test::MapFixture f(pl::test::PgCluster::get().new_database());
+  const std::string& db = f.db;
+  ServerProcess a(db, f.token_args()), b(db);
   HttpClient ha(a.url()), hb(b.url());
   const std::string roi = "/v1/maps/town/roi?x=10&y=10&radius=30";
   const json ra = json::parse(ha.get(roi).body), rb = json::parse(hb.get(roi).body);
