@@ -37,7 +37,9 @@ void say(FILE* out, const char* level, const std::string& msg) {
   if (log_json) {
     const std::time_t t = std::time(nullptr);
     char when[32];
-    std::strftime(when, sizeof(when), "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    std::strftime(when, sizeof(when), "%Y-%m-%dT%H:%M:%SZ", &tm);
     std::fprintf(out, "%s\n",
                  nlohmann::json({{"time", when}, {"level", level}, {"msg", "pl-server: " + msg}})
                      .dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)
