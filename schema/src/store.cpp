@@ -405,15 +405,6 @@ int SqliteStore::schema_version() const {
 
 MapInfo SqliteStore::create_map(const std::string& name, const GeoPoint& origin, double tile_size, double voxel_size) {
   const Db db = conn();
-  if (!api::valid_map_name(name))
-    throw Error(path_ + ": invalid map name \"" + name + "\": use 1 to 64 of A-Z a-z 0-9 _ . -");
-  if (!(origin.lat_deg >= -90 && origin.lat_deg <= 90) || !(origin.lon_deg >= -180 && origin.lon_deg <= 180) ||
-      !std::isfinite(origin.alt_m))
-    throw Error(path_ + ": map " + name +
-                ": the origin must be a latitude in [-90, 90], a longitude in [-180, 180] "
-                "and a finite altitude (degrees, metres)");
-  if (!(tile_size > 0) || !std::isfinite(tile_size) || !(voxel_size > 0) || !std::isfinite(voxel_size))
-    throw Error(path_ + ": map " + name + ": tile and voxel sizes must be positive numbers of metres");
   WriteScope tx(db);
   if (find_map_id(db, name)) throw Error(path_ + ": map " + name + " already exists");
   Stmt ins(db,

@@ -5,6 +5,7 @@
 // Private to pl_schema.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -17,6 +18,13 @@
 
 namespace pl::store::detail {
 
+// The largest tile either engine stores: the SQLite connection's value limit, so that a store moves
+// between the engines (PostgreSQL's own limit for a bytea is 1 GB).
+inline constexpr std::size_t kMaxTileBytes = std::size_t{256} << 20;
+
+// The engines get arguments Store has checked already (names, origins, sizes, bounds, empty
+// values: store_facade.cpp); what they check themselves is what only they know (the text
+// PostgreSQL takes, states, existence).
 class StoreBackend {
  public:
   virtual ~StoreBackend() = default;

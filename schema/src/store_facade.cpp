@@ -6,7 +6,10 @@
 #include <openssl/evp.h>
 #include <openssl/rand.h>
 
+#include <cmath>
+
 #include "pl/common/error.hpp"
+#include "pl/schema/api_rules.hpp"
 #include "pl/schema/store.hpp"
 #include "store_backend.hpp"
 
@@ -54,7 +57,18 @@ detail::StoreBackend& Store::impl() const {
 int Store::schema_version() const { return impl().schema_version(); }
 const std::string& Store::path() const { return impl().path(); }
 
+// The arguments of the writing calls are checked here, once, in front of both engines.
+
 MapInfo Store::create_map(const std::string& name, const GeoPoint& origin, double tile_size, double voxel_size) {
+  if (!api::valid_map_name(name))
+    throw Error(path() + ": invalid map name \"" + name + "\": use 1 to 64 of A-Z a-z 0-9 _ . -");
+  if (!(origin.lat_deg >= -90 && origin.lat_deg <= 90) || !(origin.lon_deg >= -180 && origin.lon_deg <= 180) ||
+      !std::isfinite(origin.alt_m))
+    throw Error(path() + ": map " + name +
+                ": the origin must be a latitude in [-90, 90], a longitude in [-180, 180] "
+                "and a finite altitude (degrees, metres)");
+  if (!(tile_size > 0) || !std::isfinite(tile_size) || !(voxel_size > 0) || !std::isfinite(voxel_size))
+    throw Error(path() + ": map " + name + ": tile and voxel sizes must be positive numbers of metres");
   return impl().create_map(name, origin, tile_size, voxel_size);
 }
 std::optional<MapInfo> Store::find_map(const std::string& name) const { return impl().find_map(name); }
@@ -73,6 +87,16 @@ std::int64_t Store::rollback(const std::string& map) { return impl().rollback(ma
 TileRecord Store::put_tile(const std::string& map, std::int64_t version, const TileKey& key, std::string_view draco_bytes,
                            std::int64_t points, double min_x, double min_y, double min_z, double max_x, double max_y,
                            double max_z) {
+  const std::string where = path() + ": map " + map + " version " + std::to_string(version) + " tile (" +
+                            std::to_string(key.tx) + ", " + std::to_string(key.ty) + ")";
+  if (draco_bytes.empty()) throw Error(where + ": empty tile data");
+  if (draco_bytes.size() > detail::kMaxTileBytes)
+    throw Error(where + ": " + std::to_string(draco_bytes.size()) + " bytes of tile data, more than the store's limit of " +
+                std::to_string(detail::kMaxTileBytes >> 20) + " MiB");
+  if (points < 0) throw Error(where + ": negative point count");
+  for (double v : {min_x, min_y, min_z, max_x, max_y, max_z})
+    if (!std::isfinite(v)) throw Error(where + ": bounds must be finite numbers");
+  if (!(min_x <= max_x && min_y <= max_y && min_z <= max_z)) throw Error(where + ": bounds have min > max");
   return impl().put_tile(map, version, key, draco_bytes, points, min_x, min_y, min_z, max_x, max_y, max_z);
 }
 bool Store::delete_tile(const std::string& map, std::int64_t version, const TileKey& key) {
@@ -103,6 +127,8 @@ std::optional<std::string> Store::places_hash(const std::string& map, std::int64
 }
 
 std::int64_t Store::add_token(const std::string& token, Role role, const std::string& note) {
+  if (token.empty()) throw Error(path() + ": empty token");
+  if (!parse_role(role_name(role))) throw Error(path() + ": invalid role " + std::to_string(static_cast<int>(role)));
   return impl().add_token(token, role, note);
 }
 
@@ -127,6 +153,7 @@ std::vector<Store::TokenInfo> Store::list_tokens() const { return impl().list_to
 
 void Store::log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
                        const std::string& detail, const std::string& who) {
+  if (action.empty()) throw Error(path() + ": upload log entry without an action");
   impl().log_upload(map, version, action, detail, who);
 }
 std::vector<Store::LogEntry> Store::upload_log(const std::string& map) const { return impl().upload_log(map); }

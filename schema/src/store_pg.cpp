@@ -443,15 +443,6 @@ VersionInfo read_version(const PgStore& store, const pqxx::row& r) {
 }  // namespace
 
 MapInfo PgStore::create_map(const std::string& name, const GeoPoint& origin, double tile_size, double voxel_size) {
-  if (!api::valid_map_name(name))
-    throw Error(name_ + ": invalid map name \"" + name + "\": use 1 to 64 of A-Z a-z 0-9 _ . -");
-  if (!(origin.lat_deg >= -90 && origin.lat_deg <= 90) || !(origin.lon_deg >= -180 && origin.lon_deg <= 180) ||
-      !std::isfinite(origin.alt_m))
-    throw Error(name_ + ": map " + name +
-                ": the origin must be a latitude in [-90, 90], a longitude in [-180, 180] "
-                "and a finite altitude (degrees, metres)");
-  if (!(tile_size > 0) || !std::isfinite(tile_size) || !(voxel_size > 0) || !std::isfinite(voxel_size))
-    throw Error(name_ + ": map " + name + ": tile and voxel sizes must be positive numbers of metres");
   return atomically([&](Work& w) {
     // ON CONFLICT: two connections creating the same name at once get one map and one refusal.
     if (w.exec_prepared("map_insert", name, pg_double(origin.lat_deg), pg_double(origin.lon_deg),

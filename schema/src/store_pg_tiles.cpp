@@ -13,10 +13,6 @@ namespace pl::store::detail {
 
 namespace {
 
-// The largest tile the store takes: the SQLite store's limit (sqlite::kMaxValueBytes), so that a
-// store moves between the two engines (PostgreSQL's own limit for a bytea is 1 GB).
-constexpr std::size_t kMaxTileBytes = std::size_t{256} << 20;
-
 // Text PostgreSQL can hold (UTF-8 without NUL): a map name in the upload log that is not can never
 // have been logged.
 bool is_pg_text(const std::string& s);
@@ -199,17 +195,6 @@ std::vector<TileRecord> read_tiles(const PgStore& store, const pqxx::result& r) 
 TileRecord PgStore::put_tile(const std::string& map, std::int64_t version, const TileKey& key,
                              std::string_view draco_bytes, std::int64_t points, double min_x, double min_y,
                              double min_z, double max_x, double max_y, double max_z) {
-  const std::string where =
-      name_ + ": map " + map + " version " + pg_num(version) + " tile (" + pg_num(key.tx) + ", " + pg_num(key.ty) + ")";
-  if (draco_bytes.empty()) throw Error(where + ": empty tile data");
-  if (draco_bytes.size() > kMaxTileBytes)
-    throw Error(where + ": " + pg_num(static_cast<std::int64_t>(draco_bytes.size())) +
-                " bytes of tile data, more than the store's limit of " + pg_num(kMaxTileBytes >> 20) + " MiB");
-  if (points < 0) throw Error(where + ": negative point count");
-  for (double v : {min_x, min_y, min_z, max_x, max_y, max_z})
-    if (!std::isfinite(v)) throw Error(where + ": bounds must be finite numbers");
-  if (!(min_x <= max_x && min_y <= max_y && min_z <= max_z)) throw Error(where + ": bounds have min > max");
-
   TileRecord rec;
   rec.key = key;
   rec.hash = content_hash(draco_bytes);
@@ -228,7 +213,9 @@ TileRecord PgStore::put_tile(const std::string& map, std::int64_t version, const
     for (int attempt = 0;; ++attempt) {
       w.exec_prepared("blob_insert", rec.hash, bytes, rec.bytes);
       if (!w.exec_prepared("blob_keep", rec.hash).empty()) break;
-      if (attempt == 3) throw Error(where + ": blob " + rec.hash + " kept vanishing while it was written; try again");
+      if (attempt == 3)
+        throw Error(name_ + ": map " + map + " version " + pg_num(version) + ": blob " + rec.hash +
+                    " kept vanishing while it was written; try again");
     }
     w.exec_prepared("tile_upsert", map_id, version, key.tx, key.ty, rec.hash, rec.points, rec.bytes, pg_double(min_x),
                     pg_double(min_y), pg_double(min_z), pg_double(max_x), pg_double(max_y), pg_double(max_z));
@@ -355,8 +342,6 @@ std::optional<std::string> PgStore::places_hash(const std::string& map, std::int
 // ---- tokens and the upload log -------------------------------------------------------------------
 
 std::int64_t PgStore::add_token(const std::string& token, Role role, const std::string& note) {
-  if (token.empty()) throw Error(name_ + ": empty token");
-  if (!parse_role(role_name(role))) throw Error(name_ + ": invalid role " + pg_num(static_cast<int>(role)));
   require_text(note, "token's note");
   const std::string hash = content_hash(token);
   return one_statement([&](Work& w) {
@@ -404,7 +389,6 @@ std::vector<Store::TokenInfo> PgStore::list_tokens() const {
 
 void PgStore::log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
                          const std::string& detail, const std::string& who) {
-  if (action.empty()) throw Error(name_ + ": upload log entry without an action");
   require_text(map, "upload log entry's map name");
   require_text(action, "upload log entry's action");
   require_text(detail, "upload log entry's detail");

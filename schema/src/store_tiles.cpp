@@ -23,18 +23,8 @@ using namespace detail;
 TileRecord SqliteStore::put_tile(const std::string& map, std::int64_t version, const TileKey& key,
                            std::string_view draco_bytes, std::int64_t points, double min_x, double min_y, double min_z,
                            double max_x, double max_y, double max_z) {
+  static_assert(kMaxTileBytes <= sqlite::kMaxValueBytes, "a tile Store takes must fit a SQLite value");
   const Db db = conn();
-  const std::string where =
-      path_ + ": map " + map + " version " + num(version) + " tile (" + num(key.tx) + ", " + num(key.ty) + ")";
-  if (draco_bytes.empty()) throw Error(where + ": empty tile data");
-  if (draco_bytes.size() > sqlite::kMaxValueBytes)
-    throw Error(where + ": " + num(static_cast<std::int64_t>(draco_bytes.size())) +
-                " bytes of tile data, more than the store's limit of " + num(sqlite::kMaxValueBytes >> 20) + " MiB");
-  if (points < 0) throw Error(where + ": negative point count");
-  for (double v : {min_x, min_y, min_z, max_x, max_y, max_z})
-    if (!std::isfinite(v)) throw Error(where + ": bounds must be finite numbers");
-  if (!(min_x <= max_x && min_y <= max_y && min_z <= max_z)) throw Error(where + ": bounds have min > max");
-
   TileRecord rec;
   rec.key = key;
   rec.hash = content_hash(draco_bytes);
@@ -171,8 +161,6 @@ bool SqliteStore::has_blob(const std::string& hash) const {
 
 std::int64_t SqliteStore::add_token(const std::string& token, Role role, const std::string& note) {
   const Db db = conn();
-  if (token.empty()) throw Error(path_ + ": empty token");
-  if (!parse_role(role_name(role))) throw Error(path_ + ": invalid role " + num(static_cast<int>(role)));
   std::string hash = content_hash(token);
   WriteScope tx(db);
   {
@@ -236,7 +224,6 @@ std::vector<Store::TokenInfo> SqliteStore::list_tokens() const {
 void SqliteStore::log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
                        const std::string& detail, const std::string& who) {
   const Db db = conn();
-  if (action.empty()) throw Error(path_ + ": upload log entry without an action");
   Stmt(db, "INSERT INTO upload_log (map, version, action, detail, who) VALUES (?1, ?2, ?3, ?4, ?5)")
       .bind_text(1, map)
       .bind_opt_int64(2, version)

@@ -1,21 +1,15 @@
 // The tests' throw-away PostgreSQL cluster (pg_cluster.hpp says what it is).
 #include "pg_cluster.hpp"
+#include "test_util.hpp"
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
 #include <pwd.h>
-#include <sys/socket.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <pqxx/pqxx>
 
-#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <functional>
-#include <iterator>
 #include <stdexcept>
 
 namespace pl::test {
@@ -26,43 +20,6 @@ namespace {
 std::string pg_bindir() {
   const char* env = std::getenv("PL_PG_BINDIR");
   return env && *env ? env : "/usr/lib/postgresql/15/bin";
-}
-
-struct Output {
-  int status;
-  std::string text;  // stdout and stderr
-};
-
-Output run(const std::string& command) {
-  FILE* p = popen((command + " 2>&1").c_str(), "r");
-  if (!p) throw std::runtime_error("cannot run " + command);
-  std::string out;
-  char buf[4096];
-  std::size_t n;
-  while ((n = std::fread(buf, 1, sizeof(buf), p)) > 0) out.append(buf, n);
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
-
-std::string file_text(const std::string& path) {
-  std::ifstream in(path);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
-// A TCP port nobody listens on right now (the kernel's pick for port 0).
-int free_port() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  if (fd < 0) throw std::runtime_error("socket() failed");
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  addr.sin_port = 0;
-  socklen_t len = sizeof(addr);
-  const bool ok = bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) == 0 &&
-                  getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len) == 0;
-  close(fd);
-  if (!ok) throw std::runtime_error("cannot find a free TCP port on 127.0.0.1");
-  return ntohs(addr.sin_port);
 }
 
 }  // namespace
@@ -129,15 +86,15 @@ void PgCluster::start() {
   const std::string tmpl = template_dir(bindir_, user_);
   bool copied = false;
   if (access((tmpl + "/PG_VERSION").c_str(), R_OK) == 0)
-    copied = run("cp -a " + tmpl + " " + data).status == 0;  // -a: the owner stays postgres when root copies
+    copied = run("cp -a " + tmpl + " " + data).exit_code == 0;  // -a: the owner stays postgres when root copies
   if (!copied) {
     std::error_code ec;
     std::filesystem::remove_all(data, ec);
-    Output init = run(as_user_ + bindir_ + "/initdb -D " + data + " -U " + user_ +
+    RunResult init = run(as_user_ + bindir_ + "/initdb -D " + data + " -U " + user_ +
                       " -A trust -E UTF8 --locale=C --no-sync --no-instructions");
-    if (init.status != 0) throw std::runtime_error("initdb of the PostgreSQL test cluster failed:\n" + init.text);
+    if (init.exit_code != 0) throw std::runtime_error("initdb of the PostgreSQL test cluster failed:\n" + init.output);
     const std::string partial = tmpl + ".partial-" + std::to_string(getpid());
-    if (run("cp -a " + data + " " + partial).status != 0 || rename(partial.c_str(), tmpl.c_str()) != 0)
+    if (run("cp -a " + data + " " + partial).exit_code != 0 || rename(partial.c_str(), tmpl.c_str()) != 0)
       std::filesystem::remove_all(partial, ec);  // another process made it first, or no room: no matter
   }
   // The port is free when picked; another process may take it before the server binds it: retried.
@@ -153,16 +110,16 @@ std::string PgCluster::start_server() {
   const std::string options = "-p " + std::to_string(port_) + " -k " + dir_ +
                               " -c listen_addresses=127.0.0.1 -c fsync=off -c synchronous_commit=off "
                               "-c full_page_writes=off -c max_connections=200";
-  Output ctl = run(as_user_ + bindir_ + "/pg_ctl -D " + dir_ + "/data -l " + dir_ + "/server.log -w -t 60 -o \"" + options +
+  RunResult ctl = run(as_user_ + bindir_ + "/pg_ctl -D " + dir_ + "/data -l " + dir_ + "/server.log -w -t 60 -o \"" + options +
                    "\" start");
-  if (ctl.status != 0) return ctl.text + "\n" + file_text(dir_ + "/server.log");
+  if (ctl.exit_code != 0) return ctl.output + "\n" + read_file(dir_ + "/server.log");
   running_ = true;
   return "";
 }
 
 void PgCluster::pause() {
-  Output ctl = run(as_user_ + bindir_ + "/pg_ctl -D " + dir_ + "/data -m fast -w -t 60 stop");
-  if (ctl.status != 0) throw std::runtime_error("the PostgreSQL test cluster did not stop:\n" + ctl.text);
+  RunResult ctl = run(as_user_ + bindir_ + "/pg_ctl -D " + dir_ + "/data -m fast -w -t 60 stop");
+  if (ctl.exit_code != 0) throw std::runtime_error("the PostgreSQL test cluster did not stop:\n" + ctl.output);
   running_ = false;
 }
 

@@ -62,18 +62,6 @@ Pki make_pki(const std::string& dir, const std::string& name, const std::string&
   return p;
 }
 
-int free_port() {
-  int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a));
-  socklen_t n = sizeof(a);
-  getsockname(fd, reinterpret_cast<sockaddr*>(&a), &n);
-  close(fd);
-  return ntohs(a.sin_port);
-}
-
 bool port_open(int port) {
   int fd = socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in a{};
@@ -88,7 +76,7 @@ bool port_open(int port) {
 // nginx in the foreground with deploy/nginx/pointlocalization.conf filled in, on a free loopback port.
 class Nginx {
  public:
-  Nginx(const std::string& dir, const Pki& pki, int origin_port) : dir_(dir), port_(free_port()) {
+  Nginx(const std::string& dir, const Pki& pki, int origin_port) : dir_(dir), port_(pl::test::free_port()) {
     const std::string nginx = "/usr/sbin/nginx";
     if (access(nginx.c_str(), X_OK) != 0)
       throw std::runtime_error(nginx + " is missing: apt-get install nginx-light (./pl test installs it)");
