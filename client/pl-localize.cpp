@@ -210,6 +210,8 @@ int main(int argc, char** argv) {
   app.add_option("--token", cfg.tiles.token, "bearer token when the server requires one for reads");
   app.add_option("--ca-file", cfg.tiles.ca_file, "https: PEM file of the CA the server's certificate must chain to (default: the system's)")->type_name("FILE");
   app.add_flag("--insecure-http", cfg.tiles.insecure_http, "allow plain http:// to another machine (the map and the token in clear)");
+  app.add_option("--fleet-keys", cfg.tiles.fleet_keys, "PEM file of the fleet's Ed25519 public key(s) (pl-map key-gen): use only map "
+                 "versions signed with one of them, and each tile only with the hash the signed manifest gives")->type_name("FILE");
   app.add_flag("--realtime", realtime, "pace the replay at the drive's clock");
   // Every other setting by name (pl/client/config_fields.hpp, the table a ROS node's parameters use).
   std::vector<std::string> settings;

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "pl/common/cli.hpp"
@@ -11,6 +12,7 @@
 #include "pl/common/output_path.hpp"
 #include "pl/common/progress.hpp"
 #include "pl/common/text.hpp"
+#include "pl/schema/signed_manifest.hpp"
 #include "pl/maps/catalog.hpp"
 #include "pl/maps/gloam.hpp"
 #include "pl/maps/import.hpp"
@@ -128,7 +130,7 @@ void add_tile(Tool& tool) {
 
 // publish, rollback, list, info, diff: --db and --map of an existing store.
 struct StoreArgs {
-  std::string db, map;
+  std::string db, map, signing_key;
   std::int64_t version = 0, from = 0, to = 0;
   pl::store::Store open() const { return pl::store::Store::open(db, false); }
 };
@@ -144,15 +146,19 @@ CLI::App& store_command(Tool& tool, const std::string& name, const std::string& 
 
 void add_store_commands(Tool& tool) {
   auto s = std::make_shared<StoreArgs>();
-  CLI::App& publish = store_command(tool, "publish", "make a staged version current (one transaction)", s, [s] {
+  CLI::App& publish = store_command(tool, "publish", "make a staged version current (one transaction), signed with --signing-key", s, [s] {
+    std::optional<pl::signing::SigningKey> key;
+    if (!s->signing_key.empty()) key = pl::signing::SigningKey::load(s->signing_key);  // before anything is written
     auto store = s->open();
     maps::need_map(store, s->map);
-    store.publish(s->map, s->version);
-    store.log_upload(s->map, s->version, "publish", "", "pl-map");
-    std::printf("map %s: version %lld is current\n", s->map.c_str(), static_cast<long long>(s->version));
+    maps::publish_version(store, s->map, s->version, key ? &*key : nullptr);
+    const std::string how = key ? ", signed by key " + pl::signing::key_id(key->public_key()) : std::string();
+    std::printf("map %s: version %lld is current%s\n", s->map.c_str(), static_cast<long long>(s->version), how.c_str());
     return 0;
   });
   pl::cli::number(publish, "--version", s->version, "the staged version to publish", pl::cli::at_least(1))->required()->default_str("");
+  publish.add_option("--signing-key", s->signing_key, "sign the version's manifest with this Ed25519 private key (PEM, pl-map key-gen) "
+                     "as it is published; vehicles holding the public key use only signed versions")->type_name("FILE");
   store_command(tool, "rollback", "make the previously published version current again", s, [s] {
     auto store = s->open();
     maps::need_map(store, s->map);
@@ -194,6 +200,28 @@ void add_push(Tool& tool) {
   c.add_option("--token", o->token, "a token of the upload role (admin to create the map there)")->required();
   c.add_option("--ca-file", o->ca_file, "https: PEM file of the CA the server's certificate must chain to (default: the system's)")->type_name("FILE");
   c.add_flag("--insecure-http", o->insecure_http, "allow plain http:// to another machine (the token crosses the network in clear)");
+  c.add_option("--signing-key", o->signing_key, "sign the version's manifest with this Ed25519 private key (PEM, pl-map key-gen): "
+               "what the server holds is checked against the local version first")->type_name("FILE");
+}
+
+// The fleet's signing key: the private half signs versions as they are published (pl-map publish
+// and push --signing-key), the public half goes to every vehicle (pl-localize --fleet-key) and to
+// the servers that take uploads (pl-server --fleet-key).
+void add_key_gen(Tool& tool) {
+  auto out = std::make_shared<std::string>();
+  CLI::App& c = tool.command("key-gen", "make an Ed25519 key pair for signing map versions: PREFIX.key (private, mode 0600) and PREFIX.pub", [out] {
+    const auto key = pl::signing::SigningKey::generate();
+    const std::string priv = *out + ".key", pub = *out + ".pub";
+    if (pl::file_exists(priv) || pl::file_exists(pub))
+      throw pl::Error(priv + " or " + pub + " exists already: a key is never written over (move the old pair away, or pick another --out)");
+    key.save(priv);
+    pl::signing::save_public_key(key.public_key(), pub);
+    std::printf("key %s: private key %s (keep it where versions are published; never on a vehicle), public key %s "
+                "(pl-localize --fleet-key, pl-server --fleet-key)\n",
+                pl::signing::key_id(key.public_key()).c_str(), priv.c_str(), pub.c_str());
+    return 0;
+  });
+  c.add_option("--out", *out, "the files' path without .key/.pub, e.g. /etc/pointlocalization/fleet")->required()->type_name("PREFIX");
 }
 
 }  // namespace
@@ -246,5 +274,6 @@ int main(int argc, char** argv) {
   add_store_commands(tool);
   add_token_commands(tool);
   add_push(tool);
+  add_key_gen(tool);
   return tool.main(argc, argv);
 }

@@ -9,6 +9,7 @@
 #include "pl/common/cli.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/text.hpp"
+#include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 #include "pl/server/server.hpp"
 
@@ -101,6 +102,9 @@ int main(int argc, char** argv) {
   pl::cli::number(app, "--upload-rate", cfg.api.upload_rate, "uploads a second each token may send on average (429 beyond; 0: no limit)",
                   pl::cli::between(0, 1e9));
   pl::cli::number(app, "--upload-burst", cfg.api.upload_burst, "... and at once", pl::cli::between(1, 1e9));
+  std::vector<std::string> fleet_key_files;
+  app.add_option("--fleet-key", fleet_key_files, "a PEM file of the fleet's Ed25519 public keys (pl-map key-gen), repeatable: "
+                 "publishes must then be signed by one of these keys (pl-map push, with the private key)")->type_name("FILE");
   pl::cli::number(app, "--cache-mb", cache_mb, "memory for tiles served often, MB", pl::cli::between(0, 1 << 20));
   app.add_flag("--quiet", quiet, "no access log");
   app.add_flag("--log-json", cfg.api.log_json, "log as JSON lines (time, level, msg, request_id, ...) for a log collector");
@@ -113,6 +117,8 @@ int main(int argc, char** argv) {
     log_json = cfg.api.log_json;
     parse_listen(listen, cfg);
     cfg.api.blob_cache_bytes = cache_mb << 20;
+    for (const auto& f : fleet_key_files)
+      for (auto& k : pl::signing::load_public_keys(f)) cfg.api.fleet_keys.push_back(std::move(k));
     cfg.access_log = !quiet;
     if (!pl::store::is_postgres_url(cfg.api.db) && !pl::file_exists(cfg.api.db)) throw pl::Error(cfg.api.db + ": no such map store (create one with pl-map tile)");
     if (!tokens.empty()) add_tokens(cfg.api.db, tokens);

@@ -38,6 +38,10 @@ class ClientStatus {
     ++st_.corrupt;
     st_.last_error = message;
   }
+  void rejected() {  // an answer refused: bytes not matching their hash, a signature not verifying
+    std::lock_guard<std::mutex> lock(mu_);
+    ++st_.rejected;
+  }
   void tile_fetched() {
     std::lock_guard<std::mutex> lock(mu_);
     ++st_.fetched;

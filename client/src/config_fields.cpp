@@ -32,7 +32,7 @@ PL_MEMBERS(PlaceConfig, 3);
 PL_MEMBERS(LidarOdometryConfig, 9);
 PL_MEMBERS(LocalizerConfig, 15);
 PL_MEMBERS(registration::PoseSearch, 7);
-PL_MEMBERS(TileClientConfig, 12);
+PL_MEMBERS(TileClientConfig, 13);
 PL_MEMBERS(VehicleLocalizerConfig, 14);
 #undef PL_MEMBERS
 
@@ -213,6 +213,7 @@ void add(Table t, TileClientConfig& c) {
   FIELD(token, "bearer token when the server requires one for reads");
   FIELD(ca_file, "https: PEM file of the CA the server's certificate must chain to; empty: the system's CAs");
   FIELD(insecure_http, "allow plain http:// to another machine (the map and the token cross the network in clear)");
+  FIELD(fleet_keys, "PEM file of the fleet's Ed25519 public key(s): only versions signed with one are used; empty: no check");
 }
 
 void add(Table t, VehicleLocalizerConfig& c) {

@@ -29,6 +29,20 @@ std::vector<CachedTile> DiskCache::rows(const std::string& map, long long versio
   }
 }
 
+std::optional<std::string> DiskCache::signed_manifest(const std::string& map, long long version) {
+  if (!cache_) return std::nullopt;
+  try {
+    return cache_->signed_manifest(map, version);
+  } catch (const Error& e) {
+    status_.problem(std::string("disk cache: ") + e.what());
+    return std::nullopt;
+  }
+}
+
+void DiskCache::put_signed_manifest(const std::string& map, long long version, std::string_view body) {
+  write([&](TileCache& c) { c.put_signed_manifest(map, version, body); });
+}
+
 std::optional<std::string> DiskCache::blob(const CachedTile& t, const std::string& map, long long version) {
   if (!cache_) return std::nullopt;
   bool corrupt = false;

@@ -34,6 +34,10 @@ class DiskCache {
   // when not there or damaged (then dropped). Either way the hash is remembered as missing.
   std::optional<std::string> blob(const CachedTile& t, const std::string& map, long long version);
 
+  // A version's signed manifest as the server sent it (the caller verifies it).
+  std::optional<std::string> signed_manifest(const std::string& map, long long version);
+  void put_signed_manifest(const std::string& map, long long version, std::string_view body);
+
   void put_manifest(const CachedManifest& m);
   void put_tiles(const std::string& map, long long version, const std::vector<CachedTile>& rows);
   void put_blob(const std::string& hash, std::string_view bytes);  // no longer counted missing, stored or not

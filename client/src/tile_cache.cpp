@@ -23,7 +23,7 @@ using sqlite::Row;
 using sqlite::Stmt;
 using sqlite::WriteScope;
 
-constexpr int kSchemaVersion = 1;
+constexpr int kSchemaVersion = 2;
 
 // What messages call a cache file, and the fixes they name. The cache only holds copies of what
 // the server has, so deleting it loses nothing; nothing here deletes it on its own (it may still
@@ -64,6 +64,17 @@ CREATE TABLE IF NOT EXISTS tiles (
 ) WITHOUT ROWID;
 )sql";
 
+// Schema version 2: the signed manifests of map versions (pl/schema/signed_manifest.hpp), as the
+// server sent them: the client verifies one again each time it reads it.
+constexpr const char* kSchema2 = R"sql(
+CREATE TABLE IF NOT EXISTS signed_manifests (
+  map TEXT NOT NULL,
+  version INTEGER NOT NULL,
+  body BLOB NOT NULL,
+  PRIMARY KEY (map, version)
+);
+)sql";
+
 Db handle(void* db, const std::string& path) { return sqlite::checked(db, path, kTileCache); }
 
 // What put_manifest accepts, and so what manifest() and last_used() may return.
@@ -90,10 +101,11 @@ constexpr const char* kManifestColumns =
 
 // ---- opening -------------------------------------------------------------------------------------
 
-// What kSchema makes, built once.
-const sqlite::Schema& expected_schema() {
-  static const sqlite::Schema schema = sqlite::schema_of(kTileCache, {kSchema});
-  return schema;
+// What the scripts make at each schema version, built once.
+const sqlite::Schema& expected_schema(std::int64_t version) {
+  static const sqlite::Schema v1 = sqlite::schema_of(kTileCache, {kSchema});
+  static const sqlite::Schema v2 = sqlite::schema_of(kTileCache, {kSchema, kSchema2});
+  return version == 1 ? v1 : v2;
 }
 
 // Checks the file before anything is written to it (the switch to WAL, the tables of a new cache):
@@ -102,8 +114,8 @@ std::int64_t check_file(const Db& db) {
   sqlite::ReadSnapshot snapshot(db);
   const sqlite::Header h = sqlite::read_header(db);
   sqlite::check_identity(db, h, kSchemaVersion);
-  if (h.user_version == kSchemaVersion) {
-    sqlite::check_schema(db, expected_schema(), "its tables are not the ones this software makes");
+  if (h.user_version >= 1) {
+    sqlite::check_schema(db, expected_schema(h.user_version), "its tables are not the ones this software makes");
   } else if (sqlite::query_int(db, "SELECT count(*) FROM sqlite_schema") != 0) {
     // Schema version 0 is a new cache: one that already has tables is something else.
     throw Error(db.path() + ": not a tile cache (schema version 0 but it has tables): delete it or choose another cache_path");
@@ -134,9 +146,10 @@ TileCache::TileCache(const std::string& path) : path_(path) {
     // WAL lets the tests (and tools) read the cache while a client writes it; synchronous NORMAL is
     // durable enough for a cache (a power cut loses at most the last transactions, never the file).
     sqlite::use_wal(conn);
-    if (schema < kSchemaVersion) {
+    if (schema < kSchemaVersion) {  // a new cache, or one of schema version 1 (its tables are kept)
       WriteScope tx(conn);
       exec(conn, kSchema);
+      exec(conn, kSchema2);
       exec(conn, ("PRAGMA application_id=" + std::to_string(kTileCache.application_id)).c_str());
       exec(conn, ("PRAGMA user_version=" + std::to_string(kSchemaVersion)).c_str());
       tx.commit();
@@ -243,6 +256,19 @@ void TileCache::put_tiles(const std::string& map, long long version, const std::
     st.bind_int64(6, t.points).run();
   }
   tx.commit();
+}
+
+void TileCache::put_signed_manifest(const std::string& map, long long version, std::string_view body) {
+  Stmt st(handle(db_, path_), "INSERT OR REPLACE INTO signed_manifests (map, version, body) VALUES (?1, ?2, ?3)");
+  st.bind_text(1, map).bind_int64(2, version).bind_blob_static(3, body).run();
+}
+
+std::optional<std::string> TileCache::signed_manifest(const std::string& map, long long version) const {
+  Stmt st(handle(db_, path_), "SELECT body FROM signed_manifests WHERE map = ?1 AND version = ?2");
+  st.bind_text(1, map).bind_int64(2, version);
+  if (!st.step()) return std::nullopt;
+  if (st.is_null(0)) return std::nullopt;
+  return st.blob(0);
 }
 
 std::vector<CachedTile> TileCache::tiles(const std::string& map, long long version) const {

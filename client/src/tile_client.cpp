@@ -38,6 +38,8 @@
 #include "disk_cache.hpp"
 #include "fetch_plan.hpp"
 #include "pl/common/error.hpp"
+#include "pl/schema/signed_manifest.hpp"
+#include "pl/schema/store.hpp"
 #include "tile_index.hpp"
 #include "tile_memory.hpp"
 #include "tile_server.hpp"
@@ -53,6 +55,8 @@ namespace {
 
 constexpr double kMaxRadius = 4000;         // focus and wait discs (the server answers ROI queries up to 5000 m)
 constexpr std::size_t kBytesPerPoint = 40;  // decoded_size of a point with normal and intensity: the most a tile takes
+// A tile whose bytes were refused by both its URLs is left alone this long (the others come meanwhile).
+constexpr std::chrono::seconds kHoldBack{30};
 
 Clock::time_point deadline_in(double timeout_s) {
   return Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(std::max(0.0, timeout_s)));
@@ -63,12 +67,19 @@ Clock::time_point deadline_in(double timeout_s) {
 struct TileClient::Impl {
   // ---- fixed before the thread starts
   TileClientConfig cfg;
+  std::vector<std::string> trusted;  // the fleet's public keys (cfg.fleet_keys); empty: signatures not checked
 
   // ---- the background thread's own (status reports are read by status())
   ClientStatus reports;
   TileServer server;
   DiskCache disk;
   std::set<std::string> broken;            // hashes whose bytes do not decode: skipped until the version changes
+  // Hashes whose fetched bytes did not match: asked for by their key's URL next (another entry of
+  // any HTTP cache on the way), and when that fails too, left alone for a while so that the other
+  // tiles come meanwhile.
+  std::set<std::string> by_key;
+  std::map<std::string, Clock::time_point> held_back;
+  std::optional<long long> pending_pin;  // a pin whose signed manifest could not be had yet: the old version serves meanwhile
   std::uint64_t blocked_gen = UINT64_MAX;  // a tile did not fit in memory for this plan: wait for a change
 
   // ---- shared with the caller's threads, under mu (the thread reads its own writes without it)
@@ -93,12 +104,15 @@ struct TileClient::Impl {
   std::mutex places_mu;
   std::optional<long long> places_version;  // the version whose answer is kept
   std::optional<std::string> places_bytes;  // that answer: the bytes, or nothing (it has none)
+  std::string signed_by;                    // under mu: the key id of the version in use (with fleet keys)
+  std::optional<std::string> signed_places; // under mu: with fleet keys, the places' hash the version's manifest gives (none: it has none)
 
   std::thread thread;
 
   // Throws pl::Error for a malformed server URL, then for a disk cache it cannot open.
-  explicit Impl(TileClientConfig c)
+  explicit Impl(TileClientConfig c, std::vector<std::string> keys)
       : cfg(std::move(c)),
+        trusted(std::move(keys)),
         server(cfg, reports),
         disk(cfg.cache_path, reports),
         pinned(cfg.version),
@@ -107,16 +121,22 @@ struct TileClient::Impl {
   // ---------------------------------------------------------------------------------------------
   // The pinned version
 
-  // Makes `m` the pinned version: its manifest, and the index from the disk cache.
-  void adopt(const CachedManifest& m) {
+  // Makes `m` the pinned version: its manifest, and the index: the whole version's rows when given
+  // (from its signed manifest), else the rows the disk cache learned.
+  // `key` and `places`: a signed version's key id and places hash.
+  void adopt(const CachedManifest& m, std::optional<std::vector<CachedTile>> all_rows = std::nullopt, const std::string& key = "",
+             const std::optional<std::string>& places = std::nullopt) {
     if (!wire::valid_tile_size(m.tile_size))  // (a manifest from the disk cache is checked here too)
       throw Error("map " + m.map + " version " + std::to_string(m.version) + ": tile size " + std::to_string(m.tile_size) +
                   " m is not between 1 and 1000 m: delete the disk cache " + cfg.cache_path);
     TileGrid g(m.tile_size);  // throws for a bad tile size before anything changes
-    std::vector<CachedTile> rows = disk.rows(m.map, m.version);
+    const bool complete = all_rows.has_value();
+    std::vector<CachedTile> rows = complete ? std::move(*all_rows) : disk.rows(m.map, m.version);
     disk.put_manifest(m);
     disk.forget_missing();
     broken.clear();
+    by_key.clear();
+    held_back.clear();
     blocked_gen = UINT64_MAX;
     std::lock_guard<std::mutex> lock(mu);
     manifest = m;
@@ -125,8 +145,52 @@ struct TileClient::Impl {
     index.clear();
     memory.clear();
     for (auto& r : rows) learn(std::move(r));
+    if (complete) index.set_complete();
+    signed_by = key;
+    signed_places = places;
     ready = true;
     changed.notify_all();
+  }
+
+  // ---- signed versions (with fleet keys)
+
+  // Makes a verified signed manifest the pinned version, its tiles the whole index; keeps its body
+  // in the disk cache for a start with the server down.
+  void adopt_signed(const signing::SignedManifest& sm, const std::string& body) {
+    const signing::Manifest& s = sm.manifest;
+    CachedManifest m;
+    m.map = cfg.map;
+    m.version = s.version;
+    m.tile_size = s.tile_size;
+    m.voxel_size = s.voxel_size;
+    m.origin = s.origin;
+    std::vector<CachedTile> rows;
+    rows.reserve(s.tiles.size());
+    for (const auto& t : s.tiles) rows.push_back(CachedTile{t.key, t.hash, t.points});
+    disk.put_signed_manifest(cfg.map, s.version, body);
+    adopt(m, std::move(rows), signing::key_id(sm.public_key), s.places);
+  }
+
+  // The version's signed manifest from the disk cache, verified again (one that does not verify is
+  // reported and left: the server's is fetched instead).
+  bool adopt_signed_from_disk(long long version) {
+    auto body = disk.signed_manifest(cfg.map, version);
+    if (!body) return false;
+    try {
+      adopt_signed(wire::verified_manifest(*body, trusted, cfg.map, version), *body);
+      return true;
+    } catch (const wire::WireError& e) {
+      reports.rejected();
+      reports.problem("disk cache " + cfg.cache_path + ": the signed manifest of map " + cfg.map + " version " + std::to_string(version) +
+                      " kept there is refused (" + e.what() + "): fetching it again");
+      return false;
+    }
+  }
+
+  // The version from the server, its signed manifest verified. Throws RequestFailed.
+  void adopt_signed_from_server(long long version) {
+    auto [sm, body] = server.signed_manifest(version, trusted);
+    adopt_signed(sm, body);
   }
 
   // Under mu: records what the version holds at a key (a tile held for another hash goes).
@@ -144,6 +208,7 @@ struct TileClient::Impl {
       std::lock_guard<std::mutex> lock(mu);
       pin = pinned;
     }
+    if (!trusted.empty()) return become_ready_signed(pin);
     if (pin) {
       if (auto m = disk.manifest(cfg.map, pin)) {
         adopt(*m);
@@ -166,18 +231,51 @@ struct TileClient::Impl {
     return false;
   }
 
-  void apply_pin(long long v) {
+  // The same with fleet keys: only a version whose signed manifest verifies (the map's JSON
+  // manifest only says which version is current).
+  bool become_ready_signed(std::optional<long long> pin) {
+    if (pin && adopt_signed_from_disk(*pin)) return true;
+    if (server.may_ask()) {
+      try {
+        const long long version = pin ? *pin : server.manifest(std::nullopt).version;
+        adopt_signed_from_server(version);
+        return true;
+      } catch (const RequestFailed&) {
+      }
+    }
+    if (!pin) {
+      if (auto m = disk.manifest(cfg.map, std::nullopt))
+        if (adopt_signed_from_disk(m->version)) return true;
+    }
+    return false;
+  }
+
+  // Returns false while a signed version's manifest cannot be had (the old version serves meanwhile).
+  bool apply_pin(long long v) {
     CachedManifest m;
     {
       std::lock_guard<std::mutex> lock(mu);
-      if (ready && manifest.version == v) return;
-      pinned = v;
-      if (!ready) return;  // become_ready() picks it up
+      if (ready && manifest.version == v) return true;
+      if (!ready) {
+        pinned = v;
+        return true;  // become_ready() picks it up
+      }
       m = manifest;
+    }
+    if (!trusted.empty()) {
+      if (adopt_signed_from_disk(v)) return true;
+      if (!server.may_ask()) return false;
+      try {
+        adopt_signed_from_server(v);
+        return true;
+      } catch (const RequestFailed&) {
+        return false;
+      }
     }
     m.version = v;  // the tile size and origin are the map's; the server checks the version on the first ROI
     if (auto cached = disk.manifest(cfg.map, v)) m = *cached;
     adopt(m);
+    return true;
   }
 
   // ---------------------------------------------------------------------------------------------
@@ -235,10 +333,18 @@ struct TileClient::Impl {
   // Fetches a tile from the server (checked against its hash, decoded), caches it on disk, keeps it.
   void fetch(const CachedTile& t, const FetchPlan& plan, std::size_t rank) {
     std::optional<TileServer::Blob> blob;
+    const bool second_try = by_key.count(t.hash) > 0;
     try {
-      blob = server.blob(t, manifest.version);
+      blob = server.blob(t, manifest.version, second_try);
     } catch (const RequestFailed&) {
-      if (server.last_status() == 404) {  // forget the row: the next ROI query learns the key afresh
+      if (server.last_rejected()) {
+        if (second_try) {
+          by_key.erase(t.hash);
+          held_back[t.hash] = Clock::now() + kHoldBack;
+        } else {
+          by_key.insert(t.hash);
+        }
+      } else if (server.last_status() == 404 && !index.complete()) {  // forget the row: the next ROI query learns the key afresh
         std::lock_guard<std::mutex> lock(mu);
         index.forget(t.key);
       }
@@ -247,9 +353,19 @@ struct TileClient::Impl {
       undecodable(t, e.what());
       return;
     }
+    by_key.erase(t.hash);
     reports.tile_fetched();
     disk.put_blob(t.hash, blob->bytes);  // only a tile that decodes is cached
     keep(t, std::make_shared<const TileCloud>(std::move(blob->cloud)), blob->bytes.size(), plan, rank, false);
+  }
+
+  // Whether a tile whose bytes were refused twice is still left alone.
+  bool is_held_back(const std::string& hash) {
+    auto it = held_back.find(hash);
+    if (it == held_back.end()) return false;
+    if (Clock::now() < it->second) return true;
+    held_back.erase(it);
+    return false;
   }
 
   // Asks the server about a disc and learns its keys.
@@ -279,7 +395,7 @@ struct TileClient::Impl {
       {
         std::lock_guard<std::mutex> lock(mu);
         const CachedTile* row = index.find(plan.wants[rank].key);
-        if (!row || !row->exists() || memory.holds(row->key) || broken.count(row->hash)) continue;
+        if (!row || !row->exists() || memory.holds(row->key) || broken.count(row->hash) || is_held_back(row->hash)) continue;
         if (!memory.fits(plan, rank, kBytesPerPoint * static_cast<std::size_t>(std::max(0LL, row->points)))) {
           blocked = true;  // nor any farther tile
           break;
@@ -317,7 +433,8 @@ struct TileClient::Impl {
         repin = std::exchange(pin_request, std::nullopt);
       }
       try {
-        if (repin) apply_pin(*repin);
+        if (repin) pending_pin = *repin;
+        if (pending_pin && apply_pin(*pending_pin)) pending_pin.reset();
         bool is_ready;
         {
           std::lock_guard<std::mutex> lock(mu);
@@ -329,7 +446,7 @@ struct TileClient::Impl {
         }
         FetchPlan p = plan();
         Outcome o = step(p);
-        if (!o.did) sleep(p.gen, o.network_due);
+        if (!o.did) sleep(p.gen, o.network_due || pending_pin.has_value());
       } catch (const RequestFailed&) {
         // counted and described; the backoff is running and the next step works from memory and disk
       } catch (const std::exception& e) {
@@ -381,7 +498,15 @@ TileClient::TileClient(TileClientConfig cfg) {
        "retry_min_s must be positive and retry_max_s at least retry_min_s");
   // The disk cache is opened here so that a bad path fails at once; used by the background thread
   // only from now on.
-  impl_ = std::make_unique<Impl>(std::move(cfg));
+  std::vector<std::string> keys;
+  if (!cfg.fleet_keys.empty()) {
+    try {
+      keys = signing::load_public_keys(cfg.fleet_keys);
+    } catch (const Error& e) {
+      throw Error(std::string("TileClientConfig: fleet_keys: ") + e.what());
+    }
+  }
+  impl_ = std::make_unique<Impl>(std::move(cfg), std::move(keys));
   Impl& m = *impl_;
   m.thread = std::thread([&m] { m.run(); });
 }
@@ -452,16 +577,24 @@ std::optional<std::string> TileClient::places(double timeout_s) {
   // unlocked mutex.
   std::lock_guard<std::mutex> one_at_a_time(m.places_mu);
   long long version = 0;
+  std::optional<std::string> signed_hash;
   {
     std::unique_lock<std::mutex> lock(m.mu);
     if (!m.changed.wait_until(lock, deadline, [&] { return m.ready || m.stop; }) || m.stop) return std::nullopt;
     version = m.manifest.version;
+    signed_hash = m.signed_places;
   }
   if (m.places_version == version) return m.places_bytes;
   const double left = std::chrono::duration<double>(deadline - Clock::now()).count();
   if (left <= 0) return std::nullopt;
   try {
-    std::optional<std::string> got = fetch_places(m.cfg, version, left);
+    std::optional<std::string> got;
+    if (m.trusted.empty() || signed_hash) got = fetch_places(m.cfg, version, left);  // (a signed version without places has none)
+    if (got && !m.trusted.empty() && store::content_hash(*got) != *signed_hash) {
+      m.reports.rejected();
+      throw Error("the places of map " + m.cfg.map + " version " + std::to_string(version) + " refused: their SHA-256 is not the " +
+                  *signed_hash + " the version's signed manifest gives (altered in a cache or on the network?); ask again later");
+    }
     m.places_version = version;
     m.places_bytes = std::move(got);
   } catch (const Error& e) {
@@ -478,6 +611,7 @@ TileClientStatus TileClient::status() const {
   s.version = impl_->ready ? impl_->manifest.version : 0;
   s.tile_size = impl_->ready ? impl_->manifest.tile_size : 0;
   if (impl_->ready) s.origin = impl_->manifest.origin;
+  s.signed_by = impl_->signed_by;
   s.tiles_in_memory = impl_->memory.count();
   s.bytes_in_memory = impl_->memory.bytes();
   return s;

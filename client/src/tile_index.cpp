@@ -6,8 +6,10 @@
 namespace pl::client {
 
 const CachedTile* TileIndex::find(const TileKey& key) const {
+  static const CachedTile kNoTile{};  // (its key is not the one asked about: a "no tile" row needs none)
   auto it = rows_.find(key);
-  return it == rows_.end() ? nullptr : &it->second;
+  if (it != rows_.end()) return &it->second;
+  return complete_ ? &kNoTile : nullptr;
 }
 
 void TileIndex::learn(CachedTile row) {
@@ -23,6 +25,7 @@ void TileIndex::clear() {
   rows_.clear();
   key_of_hash_.clear();
   have_usable_ = true;
+  complete_ = false;
 }
 
 std::vector<CachedTile> rows_of_answer(std::vector<CachedTile> listed, const std::vector<TileKey>& keys, const TileIndex& index) {

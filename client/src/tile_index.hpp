@@ -14,9 +14,13 @@ namespace pl::client {
 
 class TileIndex {
  public:
-  // What the version holds at `key`: nullptr when the key is not known.
+  // What the version holds at `key`: nullptr when the key is not known. A complete index knows
+  // every key: one it holds no row for has no tile (a "no tile here" row).
   const CachedTile* find(const TileKey& key) const;
-  bool knows(const TileKey& key) const { return rows_.count(key) > 0; }
+  bool knows(const TileKey& key) const { return complete_ || rows_.count(key) > 0; }
+  // The rows are the whole version (from its signed manifest): no key is left to ask about.
+  void set_complete() { complete_ = true; }
+  bool complete() const { return complete_; }
   std::size_t size() const { return rows_.size(); }
 
   // Records what the version holds at a key (replacing what was known there).
@@ -34,6 +38,7 @@ class TileIndex {
   std::map<TileKey, CachedTile> rows_;
   std::map<std::string, TileKey> key_of_hash_;  // the first key each hash was seen at
   bool have_usable_ = true;
+  bool complete_ = false;
 };
 
 // An ROI answer for the keys in `keys` (those of the disc asked about): the tiles it lists, plus a

@@ -39,6 +39,7 @@ void TileServer::succeeded() {
 // GET on the kept-alive connection; returns 200 answers, counts and throws on anything else.
 // `about` says what was asked ("the manifest of map town"); `hint_404` what a 404 means to fix.
 api::HttpResponse TileServer::get(const std::string& target, const std::string& about, const std::string& hint_404) {
+  last_rejected_ = false;
   if (backoff_.backing_off()) status_.request_retried();
   api::HttpResponse res;
   try {
@@ -76,6 +77,20 @@ CachedManifest TileServer::manifest(std::optional<long long> pin) {
   }
 }
 
+std::pair<signing::SignedManifest, std::string> TileServer::signed_manifest(long long version, const std::vector<std::string>& trusted) {
+  const std::string about = "the signed manifest of map " + cfg_.map + " version " + std::to_string(version);
+  api::HttpResponse res = get("/v1/maps/" + api::url_encode(cfg_.map) + "/versions/" + std::to_string(version) + "/manifest", about,
+                              pinned_hint(version));
+  try {
+    auto verified = wire::verified_manifest(res.body, trusted, cfg_.map, version);
+    return {std::move(verified), std::move(res.body)};
+  } catch (const wire::WireError& e) {
+    last_rejected_ = true;
+    status_.rejected();
+    failed(about + " refused: " + e.what() + "; not using the version, keeping the tiles in use");
+  }
+}
+
 std::vector<CachedTile> TileServer::roi(const RoiQuery& q, long long version, double tile_size) {
   std::string about = "the tiles of map " + cfg_.map + " version " + std::to_string(version) + " around (" + number(q.disc.center.x()) +
                       ", " + number(q.disc.center.y()) + ")";
@@ -93,16 +108,21 @@ std::vector<CachedTile> TileServer::roi(const RoiQuery& q, long long version, do
   }
 }
 
-TileServer::Blob TileServer::blob(const CachedTile& t, long long version) {
+TileServer::Blob TileServer::blob(const CachedTile& t, long long version, bool by_key) {
   std::string about = "tile " + key_name(t.key) + " (" + t.hash + ")";
-  api::HttpResponse res = get("/v1/blobs/" + t.hash, about, "the key rows cached for map " + cfg_.map + " version " + std::to_string(version) +
-                                                           " are stale (was the map store rebuilt?); asking the server again");
+  const std::string target = by_key ? "/v1/maps/" + api::url_encode(cfg_.map) + "/versions/" + std::to_string(version) + "/tiles/" +
+                                          std::to_string(t.key.tx) + "/" + std::to_string(t.key.ty)
+                                    : "/v1/blobs/" + t.hash;
+  api::HttpResponse res = get(target, about, "the key rows cached for map " + cfg_.map + " version " + std::to_string(version) +
+                                                 " are stale (was the map store rebuilt?); asking the server again");
   // The bytes are checked against the hash before anything else looks at them, then decoded.
   try {
     TileCloud cloud = wire::verified_tile(res.body, t.hash);
     return Blob{std::move(res.body), std::move(cloud)};
   } catch (const wire::WireError& e) {
-    failed(about + ": " + e.what());
+    last_rejected_ = true;
+    status_.rejected();
+    failed(about + " refused: " + e.what() + "; never used" + (by_key ? ", left for a while" : ", asking for it by its key next"));
   } catch (const Error& e) {
     throw UndecodableTile(e.what());
   }

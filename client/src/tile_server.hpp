@@ -7,6 +7,7 @@
 #pragma once
 
 #include <map>
+#include <utility>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -17,6 +18,7 @@
 #include "client_status.hpp"
 #include "fetch_plan.hpp"
 #include "pl/schema/http_client.hpp"
+#include "pl/schema/signed_manifest.hpp"
 #include "pl/client/tile_cache.hpp"
 #include "pl/client/tile_client.hpp"
 #include "pl/common/tile_codec.hpp"
@@ -45,6 +47,10 @@ class TileServer {
 
   // GET /v1/maps/{map}: the manifest of `pin` (else of the map's current version).
   CachedManifest manifest(std::optional<long long> pin);
+  // GET /v1/maps/{map}/versions/{v}/manifest: the version's signed manifest, verified against
+  // `trusted` (wire::verified_manifest), and the body as it came (for the disk cache). One that
+  // does not verify is counted as rejected and failed.
+  std::pair<signing::SignedManifest, std::string> signed_manifest(long long version, const std::vector<std::string>& trusted);
   // GET /v1/maps/{map}/roi: the tiles the server lists for the query's disc in `version`.
   std::vector<CachedTile> roi(const RoiQuery& q, long long version, double tile_size);
 
@@ -52,10 +58,15 @@ class TileServer {
     std::string bytes;  // the Draco bytes, matching the hash
     TileCloud cloud;    // decoded
   };
-  // GET /v1/blobs/{hash} for the tile `t` of `version`: its bytes checked against the hash, then
-  // decoded. Throws RequestFailed for bytes that do not match, UndecodableTile for bytes that match
-  // but do not decode.
-  Blob blob(const CachedTile& t, long long version);
+  // GET /v1/blobs/{hash} for the tile `t` of `version` (by_key: GET
+  // /v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}, another URL and so another entry of any HTTP
+  // cache on the way): its bytes checked against the hash, then decoded. Throws RequestFailed for
+  // bytes that do not match (counted as rejected: last_rejected() is then true), UndecodableTile
+  // for bytes that match but do not decode.
+  Blob blob(const CachedTile& t, long long version, bool by_key = false);
+  // Whether the last request failed because its answer was refused: bytes that did not match their
+  // hash, a manifest whose signature did not verify.
+  bool last_rejected() const { return last_rejected_; }
 
  private:
   api::HttpResponse get(const std::string& target, const std::string& about, const std::string& hint_404);
@@ -69,6 +80,7 @@ class TileServer {
   std::map<std::string, std::string> headers_;
   Backoff backoff_;
   int last_status_ = 0;
+  bool last_rejected_ = false;
 };
 
 // GET /v1/maps/{map}/versions/{v}/places for TileClient::places: on the caller's thread, over a

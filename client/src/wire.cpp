@@ -81,6 +81,22 @@ CachedManifest parse_manifest(std::string_view body, const std::string& map, std
   return m;
 }
 
+signing::SignedManifest verified_manifest(std::string_view body, const std::vector<std::string>& trusted, const std::string& map,
+                                          long long version) {
+  signing::SignedManifest out;
+  try {
+    out = signing::verify_signed_manifest(body, trusted);
+  } catch (const signing::ManifestError& e) {
+    bad(e.what());
+  }
+  if (out.manifest.map != map || out.manifest.version != version)
+    bad("the signed manifest is that of map " + out.manifest.map + " version " + std::to_string(out.manifest.version) + ", not of map " +
+        map + " version " + std::to_string(version) + " (replayed from elsewhere?)");
+  if (!valid_tile_size(out.manifest.tile_size))
+    bad("the signed manifest's tile size " + json(out.manifest.tile_size).dump() + " m is not between 1 and 1000 m");
+  return out;
+}
+
 std::vector<CachedTile> parse_roi(std::string_view body, long long version, double tile_size) {
   const json j = parse(body, "the ROI answer");
   const long long answered = integer(field(j, "version", "the ROI answer"), "version", 1, std::numeric_limits<long long>::max());

@@ -14,6 +14,7 @@
 #include "pl/client/tile_cache.hpp"
 #include "pl/common/tile_codec.hpp"
 #include "pl/schema/api_rules.hpp"
+#include "pl/schema/signed_manifest.hpp"
 
 namespace pl::client::wire {
 
@@ -30,6 +31,12 @@ using api::valid_tile_size;
 // GET /v1/maps/{map}: the manifest of `map`. The version is `pin` when given, else the map's
 // current one (a WireError when it has none). tile_size must be valid_tile_size.
 CachedManifest parse_manifest(std::string_view body, const std::string& map, std::optional<long long> pin);
+
+// GET /v1/maps/{map}/versions/{v}/manifest with fleet keys: a signed manifest
+// (pl/schema/signed_manifest.hpp) that verifies against one of `trusted` and is that of `map`
+// version `version` (a signed manifest of another map or version, replayed, is refused too).
+signing::SignedManifest verified_manifest(std::string_view body, const std::vector<std::string>& trusted, const std::string& map,
+                                          long long version);
 
 // GET /v1/maps/{map}/roi?...&version=V: the tiles listed (key, hash, points). The answer must be for
 // `version` and `tile_size`; every tile needs integer keys, a valid hash and points >= 0.

@@ -34,6 +34,22 @@ store::MapInfo need_map(const store::Store& s, const std::string& name) {
   return *m;
 }
 
+void publish_version(store::Store& s, const std::string& map, std::int64_t version, const signing::SigningKey* key) {
+  store::Store::Transaction tx(s);
+  std::string detail;
+  if (key) {
+    const std::string text = signing::manifest_text(signing::manifest_of(s, map, version));
+    s.put_signature(map, version, key->public_key(), key->sign(text));  // (PostgreSQL: takes the map's lock)
+    if (signing::manifest_text(signing::manifest_of(s, map, version)) != text)
+      throw Error(s.path() + ": map " + map + " version " + std::to_string(version) +
+                  " changed while it was being signed (another writer at work): nothing published; publish it again");
+    detail = "signed by key " + signing::key_id(key->public_key());
+  }
+  s.publish(map, version);
+  s.log_upload(map, version, "publish", detail, "pl-map");
+  tx.commit();
+}
+
 std::string maps_text(const store::Store& s) {
   std::string out;
   const auto maps = s.list_maps();
@@ -81,6 +97,13 @@ std::string version_text(const store::Store& s, const std::string& map, std::int
          static_cast<long long>(v->points), megabytes(static_cast<double>(v->bytes)).c_str(),
          area_km2 > 0 ? static_cast<double>(v->bytes) / 1e6 / area_km2 : 0.0);
   if (!tiles.empty()) append_format(out, "bounds       x %.1f .. %.1f, y %.1f .. %.1f m\n", lo_x, hi_x, lo_y, hi_y);
+  if (const auto sig = s.signature(map, version)) {
+    const bool good = signing::verify(sig->public_key, signing::manifest_text(signing::manifest_of(s, map, version)), sig->signature);
+    append_format(out, "signature    Ed25519 key %s, %s: %s\n", signing::key_id(sig->public_key).c_str(), sig->signed_at.c_str(),
+                  good ? "verifies" : "DOES NOT VERIFY against the manifest (the store was altered after signing)");
+  } else {
+    append_format(out, "signature    none (vehicles with a fleet key will not use this version)\n");
+  }
   return out;
 }
 

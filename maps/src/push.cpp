@@ -4,12 +4,14 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <thread>
 #include <nlohmann/json.hpp>
 
 #include "pl/schema/http_client.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/progress.hpp"
+#include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 
 using nlohmann::json;
@@ -37,6 +39,8 @@ PushReport push_version(const PushOptions& o) {
   auto version = store.find_version(o.map, o.version);
   if (!version) throw Error(source_name + ": map " + o.map + " has no version " + std::to_string(o.version));
   auto tiles = store.list_tiles(o.map, o.version);
+  std::optional<signing::SigningKey> key;
+  if (!o.signing_key.empty()) key = signing::SigningKey::load(o.signing_key);  // before anything is sent
 
   api::HttpOptions http_options;
   http_options.timeout_s = 60.0;
@@ -117,7 +121,25 @@ PushReport push_version(const PushOptions& o) {
   } else {
     expect(send("DELETE", vbase + "/places", "", auth), {200, 404}, "removing the places the local version lacks");
   }
-  expect(send("POST", vbase + "/publish", "", auth), {200}, "publishing version " + std::to_string(r.remote_version));
+  std::string publish_body;
+  if (key) {
+    // Sign what the local version is, once the server is seen to hold exactly that.
+    signing::Manifest mine = signing::manifest_of(store, o.map, o.version);
+    mine.version = r.remote_version;
+    mine.parent = opened["parent"].is_number_integer() ? std::optional<std::int64_t>(opened["parent"].get<std::int64_t>()) : std::nullopt;
+    const std::string text = signing::manifest_text(mine);
+    const auto theirs = http.get(vbase + "/manifest", auth);
+    if (theirs.status != 200) expect(theirs, {200}, "reading the manifest of version " + std::to_string(r.remote_version) + " to sign it");
+    if (theirs.body != text) {
+      std::size_t line = 1;
+      for (std::size_t i = 0; i < std::min(text.size(), theirs.body.size()) && text[i] == theirs.body[i]; ++i) line += text[i] == '\n';
+      throw Error("the server's version " + std::to_string(r.remote_version) + " of map " + o.map + " is not the local version " +
+                  std::to_string(o.version) + " (their manifests differ from line " + std::to_string(line) +
+                  "): not signing it, nothing published. Was it written to meanwhile? Run pl-map push again");
+    }
+    publish_body = json{{"public_key", signing::encode_base64(key->public_key())}, {"signature", signing::encode_base64(key->sign(text))}}.dump();
+  }
+  expect(send("POST", vbase + "/publish", publish_body, auth), {200}, "publishing version " + std::to_string(r.remote_version));
   return r;
 }
 

@@ -500,7 +500,8 @@ std::vector<VersionInfo> SqliteStore::list_versions(const std::string& map) cons
   return out;
 }
 
-void SqliteStore::publish(const std::string& map, std::int64_t number) {
+bool SqliteStore::publish(const std::string& map, std::int64_t number,
+                          const std::optional<std::optional<std::int64_t>>& only_if_current) {
   const Db db = conn();
   WriteScope tx(db);  // one IMMEDIATE transaction (a savepoint inside a Transaction)
   std::int64_t map_id = require_map(db, map);
@@ -509,6 +510,7 @@ void SqliteStore::publish(const std::string& map, std::int64_t number) {
     throw Error(path_ + ": map " + map + " version " + num(number) + " is " + state_name(state) +
                 ": only a staged version can be published");
   auto old = current_version(db, map_id);
+  if (only_if_current && *only_if_current != old) return false;  // the write lock is held: no publish can come between
   // Retire the old one first: the schema allows one published version per map.
   if (old) {
     Stmt(db, "UPDATE versions SET state = 'retired' WHERE map_id = ?1 AND number = ?2")
@@ -528,6 +530,7 @@ void SqliteStore::publish(const std::string& map, std::int64_t number) {
       .bind_int64(2, number)
       .run();
   tx.commit();
+  return true;
 }
 
 std::int64_t SqliteStore::rollback(const std::string& map) {

@@ -40,7 +40,10 @@ class StoreBackend {
   virtual VersionInfo create_version(const std::string& map, std::optional<std::int64_t> parent, const std::string& note) = 0;
   virtual std::optional<VersionInfo> find_version(const std::string& map, std::int64_t number) const = 0;
   virtual std::vector<VersionInfo> list_versions(const std::string& map) const = 0;
-  virtual void publish(const std::string& map, std::int64_t number) = 0;
+  // With `only_if_current`: publishes only while the map's current version is *only_if_current (an
+  // empty optional inside: none published yet); returns false, changing nothing, otherwise.
+  virtual bool publish(const std::string& map, std::int64_t number,
+                       const std::optional<std::optional<std::int64_t>>& only_if_current) = 0;
   virtual std::int64_t rollback(const std::string& map) = 0;
 
   virtual TileRecord put_tile(const std::string& map, std::int64_t version, const TileKey& key, std::string_view draco_bytes,
@@ -58,6 +61,10 @@ class StoreBackend {
   virtual bool delete_places(const std::string& map, std::int64_t version) = 0;
   virtual std::optional<std::string> places(const std::string& map, std::int64_t version) const = 0;
   virtual std::optional<std::string> places_hash(const std::string& map, std::int64_t version) const = 0;
+
+  virtual void put_signature(const std::string& map, std::int64_t version, std::string_view public_key,
+                             std::string_view signature) = 0;
+  virtual std::optional<Store::Signature> signature(const std::string& map, std::int64_t version) const = 0;
 
   virtual std::int64_t add_token(const std::string& token, Role role, const std::string& note) = 0;
   // The row whose hash is `hash` (revoked or not), with the hash as stored: Store compares it.

@@ -81,7 +81,10 @@ std::optional<VersionInfo> Store::find_version(const std::string& map, std::int6
   return impl().find_version(map, number);
 }
 std::vector<VersionInfo> Store::list_versions(const std::string& map) const { return impl().list_versions(map); }
-void Store::publish(const std::string& map, std::int64_t number) { impl().publish(map, number); }
+void Store::publish(const std::string& map, std::int64_t number) { impl().publish(map, number, std::nullopt); }
+bool Store::publish_if_current(const std::string& map, std::int64_t number, std::optional<std::int64_t> expected_current) {
+  return impl().publish(map, number, std::optional<std::optional<std::int64_t>>(expected_current));
+}
 std::int64_t Store::rollback(const std::string& map) { return impl().rollback(map); }
 
 TileRecord Store::put_tile(const std::string& map, std::int64_t version, const TileKey& key, std::string_view draco_bytes,
@@ -124,6 +127,17 @@ std::optional<std::string> Store::places(const std::string& map, std::int64_t ve
 }
 std::optional<std::string> Store::places_hash(const std::string& map, std::int64_t version) const {
   return impl().places_hash(map, version);
+}
+
+void Store::put_signature(const std::string& map, std::int64_t version, std::string_view public_key, std::string_view signature) {
+  if (public_key.size() != 32 || signature.size() != 64)
+    throw Error(path() + ": map " + map + " version " + std::to_string(version) +
+                ": an Ed25519 signature is a 32-byte public key and a 64-byte signature, got " + std::to_string(public_key.size()) +
+                " and " + std::to_string(signature.size()) + " bytes");
+  impl().put_signature(map, version, public_key, signature);
+}
+std::optional<Store::Signature> Store::signature(const std::string& map, std::int64_t version) const {
+  return impl().signature(map, version);
 }
 
 std::int64_t Store::add_token(const std::string& token, Role role, const std::string& note) {

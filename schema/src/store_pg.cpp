@@ -561,19 +561,21 @@ std::vector<VersionInfo> PgStore::list_versions(const std::string& map) const {
   });
 }
 
-void PgStore::publish(const std::string& map, std::int64_t number) {
-  atomically([&](Work& w) {
+bool PgStore::publish(const std::string& map, std::int64_t number, const std::optional<std::optional<std::int64_t>>& only_if_current) {
+  return atomically([&](Work& w) {
     const std::int64_t map_id = lock_map(w, map);
     VersionState state = require_version(w, map, map_id, number);
     if (state != VersionState::Staged)
       throw Error(name_ + ": map " + map + " version " + pg_num(number) + " is " + state_name(state) +
                   ": only a staged version can be published");
     const auto old = current_of(*this, w, map_id);
+    if (only_if_current && *only_if_current != old) return false;  // the map's row lock is held: no publish can come between
     // Retire the old one first: the schema allows one published version per map.
     if (old) w.exec_prepared("version_retire", map_id, *old);
     const auto old_param = pg_opt_int(old);
     w.exec_prepared("version_publish", map_id, number, pg_opt(old_param));
     w.exec_prepared("map_set_current", map_id, number);
+    return true;
   });
 }
 

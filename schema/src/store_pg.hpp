@@ -55,7 +55,8 @@ class PgStore final : public StoreBackend {
   VersionInfo create_version(const std::string& map, std::optional<std::int64_t> parent, const std::string& note) override;
   std::optional<VersionInfo> find_version(const std::string& map, std::int64_t number) const override;
   std::vector<VersionInfo> list_versions(const std::string& map) const override;
-  void publish(const std::string& map, std::int64_t number) override;
+  bool publish(const std::string& map, std::int64_t number,
+               const std::optional<std::optional<std::int64_t>>& only_if_current) override;
   std::int64_t rollback(const std::string& map) override;
 
   TileRecord put_tile(const std::string& map, std::int64_t version, const TileKey& key, std::string_view draco_bytes,
@@ -75,6 +76,9 @@ class PgStore final : public StoreBackend {
   std::optional<std::string> places_hash(const std::string& map, std::int64_t version) const override;
 
   bool usable() const override { return conn_->is_open(); }
+  void put_signature(const std::string& map, std::int64_t version, std::string_view public_key,
+                     std::string_view signature) override;
+  std::optional<Store::Signature> signature(const std::string& map, std::int64_t version) const override;
   std::int64_t add_token(const std::string& token, Role role, const std::string& note) override;
   std::optional<std::pair<Store::TokenInfo, std::string>> token_by_hash(const std::string& hash) const override;
   bool revoke_token(std::int64_t id) override;

@@ -80,6 +80,15 @@ const PgStatement kPgTileStatements[] = {
      "SELECT p.hash, p.size, "
      "EXISTS (SELECT 1 FROM versions AS v WHERE v.map_id = p.map_id AND v.number = p.version) "
      "FROM places AS p WHERE p.map_id = (SELECT id FROM maps WHERE name = $1) AND p.version = $2"},
+    // ---- signatures (the last column: whether the version exists)
+    {"signature_upsert",
+     "INSERT INTO signatures (map_id, version, public_key, signature) VALUES ($1, $2, $3, $4) "
+     "ON CONFLICT (map_id, version) DO UPDATE SET public_key = excluded.public_key, signature = excluded.signature, "
+     "signed = statement_timestamp()"},
+    {"signature_get",
+     "SELECT s.public_key, s.signature, " PL_PG_TIMESTAMP("s.signed") ", "
+     "EXISTS (SELECT 1 FROM versions AS v WHERE v.map_id = s.map_id AND v.number = s.version) "
+     "FROM signatures AS s WHERE s.map_id = (SELECT id FROM maps WHERE name = $1) AND s.version = $2"},
     // ---- tokens and the upload log
     {"token_insert", "INSERT INTO tokens (hash, role, note) VALUES ($1, $2, $3) ON CONFLICT (hash) DO NOTHING RETURNING id"},
     {"token_by_hash",
@@ -336,6 +345,34 @@ std::optional<std::string> PgStore::places_hash(const std::string& map, std::int
     row.integer(1, "size", 1);
     row.require(2, version_name(map, version) + " has places but no such version");
     return hash;
+  });
+}
+
+// ---- signatures ----------------------------------------------------------------------------------
+
+void PgStore::put_signature(const std::string& map, std::int64_t version, std::string_view public_key, std::string_view signature) {
+  const pqxx::binarystring key(public_key.data(), public_key.size()), sig(signature.data(), signature.size());
+  atomically([&](Work& w) {
+    const std::int64_t map_id = lock_map(w, map);
+    require_staged(w, map, map_id, version, "a signature");
+    w.exec_prepared("signature_upsert", map_id, version, key, sig);
+  });
+}
+
+std::optional<Store::Signature> PgStore::signature(const std::string& map, std::int64_t version) const {
+  if (!api::valid_map_name(map)) return std::nullopt;
+  return one_statement([&](Work& w) -> std::optional<Store::Signature> {
+    const pqxx::result r = w.exec_prepared("signature_get", map, version);
+    if (r.empty()) return std::nullopt;
+    PgRow row(*this, r[0], "signatures");
+    Store::Signature out;
+    out.public_key = row.bytes(0, "public_key");
+    out.signature = row.bytes(1, "signature");
+    out.signed_at = row.timestamp(2, "signed");
+    row.require(3, version_name(map, version) + " has a signature but no such version");
+    if (out.public_key.size() != 32) row.bad("public_key", "is not 32 bytes");
+    if (out.signature.size() != 64) row.bad("signature", "is not 64 bytes");
+    return out;
   });
 }
 

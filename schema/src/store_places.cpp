@@ -101,4 +101,44 @@ std::optional<std::string> SqliteStore::places_hash(const std::string& map, std:
   return hash;
 }
 
+// ---- signatures (schema/004_signatures.sql) ------------------------------------------------------
+
+void SqliteStore::put_signature(const std::string& map, std::int64_t version, std::string_view public_key, std::string_view signature) {
+  const Db db = conn();
+  WriteScope tx(db);
+  std::int64_t map_id = require_map(db, map);
+  require_staged(db, map, map_id, version, "a signature");
+  Stmt(db,
+       "INSERT INTO signatures (map_id, version, public_key, signature) VALUES (?1, ?2, ?3, ?4) "
+       "ON CONFLICT (map_id, version) DO UPDATE SET public_key = excluded.public_key, signature = excluded.signature, "
+       "signed = strftime('%Y-%m-%dT%H:%M:%fZ', 'now')")
+      .bind_int64(1, map_id)
+      .bind_int64(2, version)
+      .bind_blob_static(3, public_key)
+      .bind_blob_static(4, signature)
+      .run();
+  tx.commit();
+}
+
+std::optional<Store::Signature> SqliteStore::signature(const std::string& map, std::int64_t version) const {
+  const Db db = conn();
+  auto map_id = find_map_id(db, map);
+  if (!map_id) return std::nullopt;
+  Stmt st(db,
+          "SELECT s.public_key, s.signature, s.signed, "
+          "EXISTS (SELECT 1 FROM versions AS v WHERE v.map_id = s.map_id AND v.number = s.version) "
+          "FROM signatures AS s WHERE s.map_id = ?1 AND s.version = ?2");
+  st.bind_int64(1, *map_id).bind_int64(2, version);
+  if (!st.step()) return std::nullopt;
+  Row row(st, "signatures");
+  Store::Signature out;
+  out.public_key = row.blob(0, "public_key");
+  out.signature = row.blob(1, "signature");
+  out.signed_at = read_timestamp(row, 2, "signed");
+  row.require(3, version_name(map, version) + " has a signature but no such version");
+  if (out.public_key.size() != 32) row.bad("public_key", "is not 32 bytes");
+  if (out.signature.size() != 64) row.bad("signature", "is not 64 bytes");
+  return out;
+}
+
 }  // namespace pl::store

@@ -20,6 +20,7 @@
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
 #include "pl/schema/api_rules.hpp"
+#include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 #include "api_parts.hpp"
 #include "rate_limit.hpp"
@@ -507,6 +508,40 @@ struct Api::Impl {
     return r;
   }
 
+  // A version's manifest (pl/schema/signed_manifest.hpp): its canonical text, followed by its
+  // signature line when it was published signed. A published or retired version's never changes:
+  // kept in memory and cached by HTTP caches for good, named by the SHA-256 of the answer. A
+  // staged one's (uploaders read it to sign it) is made afresh and revalidated every time.
+  ApiResponse get_manifest(const ApiRequest& req, const std::string& name, const std::string& vs) {
+    const std::string route = "/v1/maps/{map}/versions/{v}/manifest";
+    bool staged = check_reader(req);
+    auto m = need_map(name);
+    auto info = need_version(m, parse_version(vs), staged);
+    const bool fixed = info.state != store::VersionState::Staged;
+    const std::string key = "manifest/" + name + "/" + std::to_string(info.number), hash_key = "manifest-hash/" + key;
+    std::shared_ptr<const std::string> body = fixed ? blobs.get(key) : nullptr, hash = fixed ? blobs.get(hash_key) : nullptr;
+    if (!body || !hash) {
+      std::string text = signing::manifest_text(signing::manifest_of(db(), name, info.number));
+      if (auto sig = db().signature(name, info.number)) text += signing::signature_line(sig->public_key, sig->signature);
+      body = std::make_shared<const std::string>(std::move(text));
+      hash = std::make_shared<const std::string>(store::content_hash(*body));
+      if (fixed) {
+        blobs.put(key, body);
+        blobs.put(hash_key, hash);
+      }
+    }
+    ApiResponse r = by_hash(req, *hash, route, fixed ? kImmutable : "private, no-cache");
+    if (r.status == 304) return r;
+    r.content_type = "text/plain; charset=utf-8";
+    if (fixed) {  // sent from a file of its own, like tiles
+      r.blob = std::move(body);
+      r.blob_hash = *hash;
+    } else {
+      r.body = *body;
+    }
+    return r;
+  }
+
   // The staged version a write goes to, and who writes (require_role's).
   std::pair<store::VersionInfo, std::string> need_staged(const ApiRequest& req, const std::string& name, const std::string& vs) {
     std::string by = require_role(req, store::Role::Upload);
@@ -589,12 +624,65 @@ struct Api::Impl {
                          "/v1/maps/{map}/versions");
   }
 
+  // Publishes a version only while the map's current version is still the one it was opened from
+  // (its parent): of uploaders publishing at once, the first wins and the others get 409, each to
+  // open a new version from the new current one. Nothing torn: the check and the publish are one
+  // transaction under the map's write lock, on every replica of a PostgreSQL store alike.
+  //
+  // A body {"public_key": BASE64, "signature": BASE64} signs the version: the Ed25519 signature of
+  // its manifest as GET .../manifest answers it now, checked here against the manifest the store
+  // holds in the publish's own transaction, and stored with it. With --fleet-key the signature is
+  // required and its key must be one of the fleet's.
   ApiResponse publish(const ApiRequest& req, const std::string& name, const std::string& vs) {
     auto [info, by] = need_staged(req, name, vs);
-    store::Store::Transaction tx(db());
-    db().publish(name, info.number);
-    db().log_upload(name, info.number, "publish", "", by);
-    tx.commit();
+    std::optional<std::pair<std::string, std::string>> sig;  // public key, signature
+    if (!req.body.empty()) {
+      const json j = json::parse(req.body, nullptr, false);
+      const char* expected = "expected no body, or the JSON {\"public_key\": BASE64, \"signature\": BASE64} of an Ed25519 signature";
+      if (!j.is_object() || !j.contains("public_key") || !j.contains("signature") || !j["public_key"].is_string() || !j["signature"].is_string())
+        fail(400, expected);
+      auto key = signing::decode_base64(j["public_key"].get<std::string>());
+      auto s = signing::decode_base64(j["signature"].get<std::string>());
+      if (!key || key->size() != 32 || !s || s->size() != 64) fail(400, std::string(expected) + " (32 and 64 bytes)");
+      sig.emplace(std::move(*key), std::move(*s));
+    }
+    if (!cfg.fleet_keys.empty()) {
+      if (!sig)
+        fail(422, "this server publishes signed versions only (pl-server --fleet-key): publish with pl-map push --signing-key KEY");
+      if (std::find(cfg.fleet_keys.begin(), cfg.fleet_keys.end(), sig->first) == cfg.fleet_keys.end())
+        fail(403, "the version is signed by key " + signing::key_id(sig->first) +
+                      ", which is not one of this server's fleet keys (pl-server --fleet-key): sign with the fleet's key");
+    }
+    bool published = false;
+    {
+      store::Store::Transaction tx(db());
+      std::string detail;
+      if (sig) {
+        // Written first: on PostgreSQL this takes the map's lock, so the manifest read next is the
+        // one published.
+        db().put_signature(name, info.number, sig->first, sig->second);
+        const std::string text = signing::manifest_text(signing::manifest_of(db(), name, info.number));
+        if (!signing::verify(sig->first, text, sig->second))
+          fail(422, "the signature does not verify against version " + std::to_string(info.number) +
+                        "'s manifest as the store holds it: sign the bytes GET /v1/maps/" + name + "/versions/" +
+                        std::to_string(info.number) + "/manifest answers after the last upload");
+        detail = "signed by key " + signing::key_id(sig->first);
+      }
+      published = db().publish_if_current(name, info.number, info.parent);
+      if (published) {
+        db().log_upload(name, info.number, "publish", detail, by);
+        tx.commit();
+      }
+    }
+    if (!published) {
+      const auto now = db().find_map(name);
+      const std::string current = now && now->current ? "version " + std::to_string(*now->current) : "no version";
+      const std::string opened = info.parent ? "version " + std::to_string(*info.parent) : "no version";
+      db().log_upload(name, info.number, "publish_refused", current + " is current, not " + opened, by);
+      fail(409, "map " + name + " changed while version " + std::to_string(info.number) + " was staged: it was opened from " + opened +
+                    ", and " + current + " is current now (another upload was published first). Open a new version (POST /v1/maps/" +
+                    name + "/versions), upload the changes to it and publish that: pl-map push does all of this when run again");
+    }
     map_rows.drop(name);
     return json_response(200, {{"version", info.number}, {"state", "published"}}, "/v1/maps/{map}/versions/{v}/publish");
   }
@@ -662,6 +750,10 @@ struct Api::Impl {
     if (s.size() == 6 && s[5] == "publish") {
       if (only(m == "POST", "/v1/maps/{map}/versions/{v}/publish", kPostOnly)) return options(kPostOnly);
       return publish(req, map, s[4]);
+    }
+    if (s.size() == 6 && s[5] == "manifest") {
+      if (only(get, "/v1/maps/{map}/versions/{v}/manifest", kReadOnly)) return options(kReadOnly);
+      return get_manifest(req, map, s[4]);
     }
     if (s.size() == 6 && s[5] == "places") {
       const char* allow = "GET, HEAD, PUT, DELETE, OPTIONS";
@@ -749,6 +841,23 @@ ApiResponse Api::handle(const ApiRequest& req) {
       if (e.status == 401)  // RFC 6750: which scheme, and whether a token was sent but refused
         r.headers.emplace_back("WWW-Authenticate", req.authorization.empty() ? "Bearer realm=\"pl-server\""
                                                                              : "Bearer realm=\"pl-server\", error=\"invalid_token\"");
+    }
+    // The answers that change as maps are published (the map list, a map's manifest, ROI answers, a
+    // version's tile list): an HTTP cache in front (deploy/varnish, deploy/nginx) may keep one for a
+    // second, then revalidate it by its ETag (the body's SHA-256, weak: a proxy may re-encode it).
+    // An answer to a request with a token is that token's: private.
+    const bool get = req.method == "GET" || req.method == "HEAD";
+    if (r.status == 200 && get && r.content_type == "application/json" && !r.blob &&
+        (r.route == "/v1/maps" || r.route == "/v1/maps/{map}" || r.route == "/v1/maps/{map}/roi" ||
+         r.route == "/v1/maps/{map}/versions/{v}/tiles")) {
+      const std::string tag = "\"" + store::content_hash(r.body).substr(0, 32) + "\"";
+      r.headers.emplace_back("ETag", "W/" + tag);
+      r.headers.emplace_back("Cache-Control", req.authorization.empty() ? "public, max-age=1" : "private, no-cache");
+      if (!req.if_none_match.empty() && (req.if_none_match == "*" || req.if_none_match.find(tag) != std::string::npos)) {
+        r.status = 304;
+        r.body.clear();
+        r.content_type.clear();
+      }
     }
     // JSON answers: compressed when the client accepts gzip and it pays (a few hundred bytes on).
     if (r.content_type == "application/json" && !r.blob) {

@@ -124,14 +124,36 @@ TEST(TileCacheToolkit, CacheAndStoreNameTheirOwnFileAndFix) {
   EXPECT_FALSE(has(store_msg, "tile cache")) << store_msg;
 }
 
+// A cache of schema version 1 (before signed manifests) is migrated in place: what it held stays.
+TEST(TileCacheToolkit, CacheOfSchemaVersionOneGainsSignedManifestsAndKeepsItsTiles) {
+  TempDir dir;
+  const std::string path = dir / "cache.sqlite";
+  const std::string hash = make_cache(path);
+  raw_sql(path, "DROP TABLE signed_manifests; PRAGMA user_version = 1");
+  {
+    TileCache cache(path);
+    EXPECT_TRUE(cache.blob(hash));
+    EXPECT_EQ(cache.tiles("town", 1).size(), 41u);
+    EXPECT_FALSE(cache.signed_manifest("town", 1));
+    cache.put_signed_manifest("town", 1, "signed bytes");
+  }
+  TileCache again(path);
+  EXPECT_EQ(again.signed_manifest("town", 1).value_or(""), "signed bytes");
+  // A version-1 cache whose tables are not version 1's is refused as before.
+  const std::string other = dir / "other.sqlite";
+  make_cache(other);
+  raw_sql(other, "PRAGMA user_version = 1");  // claims 1 but has version 2's table
+  EXPECT_TRUE(has(error_of([&] { TileCache c(other); }), "not the ones this software makes"));
+}
+
 TEST(TileCacheToolkit, NewerCacheIsRefusedAndLeftAlone) {
   TempDir dir;
   const std::string path = dir / "cache.sqlite";
   make_cache(path);
-  raw_sql(path, "PRAGMA user_version = 2");
+  raw_sql(path, "PRAGMA user_version = 3");
   const std::string before = pl::test::read_file(path);
   const std::string msg = error_of([&] { TileCache cache(path); });
-  EXPECT_TRUE(has(msg, path + ": the tile cache has schema version 2, newer than this build knows (1): upgrade")) << msg;
+  EXPECT_TRUE(has(msg, path + ": the tile cache has schema version 3, newer than this build knows (2): upgrade")) << msg;
   EXPECT_TRUE(has(msg, "or delete the cache")) << msg;
   EXPECT_EQ(pl::test::read_file(path), before);
 }

@@ -1,7 +1,8 @@
 // Fuzz target: what the vehicle's tile client reads from a server (or from anything between the
 // server and the vehicle): the HTTP answer itself under the client's limits, and the manifest, ROI
 // JSON, error bodies, tile bytes and places in it. The first byte says which; the rest is the
-// answer (for places: the ETag, a newline, the bytes).
+// answer (for places: the ETag, a newline, the bytes). Also a signed manifest (verified against the
+// seeds' fleet key) and a manifest's text alone.
 #include <boost/asio/buffer.hpp>
 #include <cmath>
 #include <cstdint>
@@ -12,7 +13,9 @@
 #include "beast_feed.hpp"
 #include "http_response.hpp"
 #include "pl/common/error.hpp"
+#include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
+#include "seeds.hpp"
 #include "wire.hpp"
 
 namespace wire = pl::client::wire;
@@ -42,6 +45,35 @@ void tile(std::string_view bytes, const std::string& hash) {
       if (!p.allFinite()) std::abort();
   } catch (const wire::WireError&) {
   } catch (const pl::Error&) {
+  }
+}
+
+// The fleet key of the seeds (seeds_http.cpp signs with it).
+const std::vector<std::string>& fleet() {
+  static const std::vector<std::string> keys{pl::signing::SigningKey::from_seed(pl::fuzz::kFleetSeed).public_key()};
+  return keys;
+}
+
+// A signed manifest as the tile client takes it (with fleet keys): what passes verified, is the
+// map's and version's it was asked for, and is canonical.
+void signed_manifest(std::string_view body) {
+  try {
+    const auto sm = wire::verified_manifest(body, fleet(), "town", 1);
+    if (sm.manifest.map != "town" || sm.manifest.version != 1 || sm.public_key != fleet()[0]) std::abort();
+    const std::string_view line = body.substr(sm.text.size());
+    if (pl::signing::manifest_text(sm.manifest) != sm.text || line.substr(0, 18) != "signature ed25519 ") std::abort();
+  } catch (const wire::WireError&) {
+  }
+}
+
+// A manifest's text alone: what parses writes back byte for byte.
+void manifest_text(std::string_view body) {
+  try {
+    const auto m = pl::signing::parse_manifest_text(body);
+    if (pl::signing::manifest_text(m) != body) std::abort();
+    for (std::size_t i = 1; i < m.tiles.size(); ++i)
+      if (!(m.tiles[i - 1].key < m.tiles[i].key)) std::abort();
+  } catch (const pl::signing::ManifestError&) {
   }
 }
 
@@ -95,7 +127,7 @@ void http_answer(std::string_view in) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
   const std::string_view body(reinterpret_cast<const char*>(data) + 1, size - 1);
-  switch (data[0] % 7) {
+  switch (data[0] % 9) {
     case 0: manifest(body, std::nullopt); break;
     case 1: manifest(body, 3); break;
     case 2: roi(body); break;
@@ -107,6 +139,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     case 4: tile(body, pl::store::content_hash(body)); break;  // what the store holds, decoded
     case 5: http_answer(body); break;
     case 6: places(body); break;
+    case 7: signed_manifest(body); break;
+    case 8: manifest_text(body); break;
   }
   return 0;
 }

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "api_env.hpp"
+#include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 #include "seeds.hpp"
 
@@ -39,6 +40,10 @@ std::vector<Req> requests() {
       {"put-tile-wrong-key", "PUT", "/v1/maps/town/versions/2/tiles/3/1", "@upload", "", "", pl::fuzz::town_tile(1, 1)},
       {"delete-tile", "DELETE", "/v1/maps/town/versions/2/tiles/0/0", "@upload", "", "", ""},
       {"publish", "POST", "/v1/maps/town/versions/2/publish", "@upload", "", "", ""},
+      {"publish-signed", "POST", "/v1/maps/town/versions/2/publish", "@upload", "", "",
+       R"({"public_key": ")" + std::string(43, 'A') + R"(=", "signature": ")" + std::string(86, 'B') + R"(=="})"},
+      {"manifest-text", "GET", "/v1/maps/town/versions/1/manifest", "", "", "", ""},
+      {"manifest-staged", "GET", "/v1/maps/town/versions/2/manifest", "@upload", "", "", ""},
       {"metrics", "GET", "/metrics", "", "", "", ""},
       {"healthz", "GET", "/healthz", "", "", "", ""},
       {"readyz-head", "HEAD", "/readyz", "", "", "", ""},
@@ -108,6 +113,13 @@ void client_answer_seeds(const pl::fuzz::PutSeed& put) {
   put("http-roi", std::string(1, '\5') + http(200, "OK", roi.body, false));
   put("http-manifest-chunked", std::string(1, '\5') + http(200, "OK", manifest, true));
   put("http-404", std::string(1, '\5') + http(404, "Not Found", missing.body, false));
+  // Version 1's manifest as pl-server answers it, signed with the seeds' fleet key (the published
+  // version of api_env.hpp is not signed: signed here as pl-map publish --signing-key would).
+  const auto text = answer("GET", "/v1/maps/town/versions/1/manifest");
+  const std::string body = text.blob ? *text.blob : text.body;
+  const auto key = pl::signing::SigningKey::from_seed(pl::fuzz::kFleetSeed);
+  put("signed-manifest", std::string(1, '\7') + body + pl::signing::signature_line(key.public_key(), key.sign(body)));
+  put("manifest-text", std::string(1, '\10') + body);
 }
 
 const bool registered = pl::fuzz::register_seeds("api", api_seeds) && pl::fuzz::register_seeds("http", http_seeds) &&

@@ -10,6 +10,8 @@
 #include "pl/common/error.hpp"
 #include "pl/maps/map_builder.hpp"
 #include "pl/registration/normals.hpp"
+#include "pl/schema/http_client.hpp"
+#include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 #include "server_process.hpp"
 #include "test_util.hpp"
@@ -159,6 +161,76 @@ TEST(Maps, PushUploadsOnlyWhatTheServerLacks) {
   auto a = pl::store::Store::open(local, false).list_tiles("m", 2), b = store.list_tiles("m", 2);
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].hash, b[i].hash);
+}
+
+// Signed maps end to end: pl-map key-gen makes the fleet's pair; pl-map publish --signing-key
+// signs a local version; a server with --fleet-key takes only pushes signed with the fleet's key,
+// and serves the signed manifest, which verifies against the public key and names exactly the
+// pushed tiles.
+TEST(Maps, SignedPublishAndPushWithTheFleetKey) {
+  TempDir dir;
+  pl::Points3d pts;
+  for (double x = 0.1; x < 50; x += 0.4)
+    for (double y = 0.1; y < 30; y += 0.4) pts.emplace_back(x, y, 0.05 * std::sin(x));
+  pl::write_pcd(dir / "a.pcd", pts, {}, pl::GeoPoint{49.0, 8.4, 100.0});
+  const std::string local = dir / "local.sqlite", remote = dir / "remote.sqlite";
+  ASSERT_EQ(pl::test::run(pl_map("tile --cloud " + (dir / "a.pcd") + " --db " + local + " --map m")).exit_code, 0);
+
+  auto gen = pl::test::run(pl_map("key-gen --out " + (dir / "fleet")));
+  ASSERT_EQ(gen.exit_code, 0) << gen.output;
+  const auto fleet = pl::signing::load_public_keys(dir / "fleet.pub");
+  ASSERT_EQ(fleet.size(), 1u);
+  EXPECT_NE(gen.output.find("key " + pl::signing::key_id(fleet[0])), std::string::npos) << gen.output;
+  EXPECT_EQ(pl::signing::SigningKey::load(dir / "fleet.key").public_key(), fleet[0]);
+  auto again = pl::test::run(pl_map("key-gen --out " + (dir / "fleet")));
+  EXPECT_EQ(again.exit_code, 2);
+  EXPECT_NE(again.output.find("never written over"), std::string::npos) << again.output;
+  EXPECT_EQ(pl::signing::SigningKey::load(dir / "fleet.key").public_key(), fleet[0]);  // untouched
+  ASSERT_EQ(pl::test::run(pl_map("key-gen --out " + (dir / "other"))).exit_code, 0);
+
+  // A local publish, signed: pl-map info checks the signature against the store's manifest.
+  auto pub = pl::test::run(pl_map("publish --db " + local + " --map m --version 1 --signing-key " + (dir / "fleet.key")));
+  ASSERT_EQ(pub.exit_code, 0) << pub.output;
+  EXPECT_NE(pub.output.find("signed by key " + pl::signing::key_id(fleet[0])), std::string::npos) << pub.output;
+  auto info = pl::test::run(pl_map("info --db " + local + " --map m"));
+  EXPECT_NE(info.output.find("key " + pl::signing::key_id(fleet[0])), std::string::npos) << info.output;
+  EXPECT_NE(info.output.find(": verifies"), std::string::npos) << info.output;
+
+  // A server that takes signed publishes only.
+  { auto s = pl::store::Store::open(remote); }
+  pl::test::write_file(dir / "tokens.txt", "admin adm-1\nupload up-1\n");
+  pl::test::ServerProcess server(remote, {"--tokens", dir / "tokens.txt", "--fleet-key", dir / "fleet.pub"});
+  const std::string push = pl_map("push --db " + local + " --map m --version 1 --server " + server.url() + " --token adm-1");
+  auto unsigned_push = pl::test::run(push);
+  EXPECT_EQ(unsigned_push.exit_code, 2);
+  EXPECT_NE(unsigned_push.output.find("signed versions only"), std::string::npos) << unsigned_push.output;
+  auto wrong_key = pl::test::run(push + " --signing-key " + (dir / "other.key"));
+  EXPECT_EQ(wrong_key.exit_code, 2);
+  EXPECT_NE(wrong_key.output.find("not one of this server's fleet keys"), std::string::npos) << wrong_key.output;
+  EXPECT_FALSE(pl::store::Store::open(remote, false).find_map("m")->current);  // nothing published yet
+  auto good = pl::test::run(push + " --signing-key " + (dir / "fleet.key"));
+  ASSERT_EQ(good.exit_code, 0) << good.output;
+
+  // The served manifest: signed, verifying against the fleet key, naming the local tiles.
+  pl::api::HttpClient http(server.url());
+  const auto store = pl::store::Store::open(remote, false);
+  const std::int64_t v = *store.find_map("m")->current;
+  auto res = http.get("/v1/maps/m/versions/" + std::to_string(v) + "/manifest");
+  ASSERT_EQ(res.status, 200) << res.body;
+  EXPECT_EQ(res.header("cache-control"), "public, max-age=31536000, immutable");
+  EXPECT_EQ(res.header("etag"), "\"" + pl::store::content_hash(res.body) + "\"");
+  const auto sm = pl::signing::verify_signed_manifest(res.body, fleet);
+  const auto mine = pl::store::Store::open(local, false).list_tiles("m", 1);
+  ASSERT_EQ(sm.manifest.tiles.size(), mine.size());
+  for (std::size_t i = 0; i < mine.size(); ++i) EXPECT_EQ(sm.manifest.tiles[i].hash, mine[i].hash);
+  EXPECT_EQ(sm.manifest.version, v);
+  EXPECT_EQ(http.get("/v1/maps/m/versions/" + std::to_string(v) + "/manifest", {{"If-None-Match", res.header("etag")}}).status, 304);
+  // The upload log names the key; the remote store's info checks the signature too.
+  bool logged = false;
+  for (const auto& e : store.upload_log("m")) logged |= e.action == "publish" && e.detail == "signed by key " + pl::signing::key_id(fleet[0]);
+  EXPECT_TRUE(logged);
+  auto remote_info = pl::test::run(pl_map("info --db " + remote + " --map m"));
+  EXPECT_NE(remote_info.output.find(": verifies"), std::string::npos) << remote_info.output;
 }
 
 // The cloud readers behind pl-map tile: every PCD and PLY the fuzzers found crashing or over-

@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <exception>
@@ -155,6 +156,67 @@ TEST_P(StoreConcurrencyTest, ConcurrentCreateVersionsGetDistinctNumbers) {
   Store s = Store::open(path);
   EXPECT_EQ(s.list_versions("m").size(), static_cast<std::size_t>(1 + kThreads * kEach));
   EXPECT_EQ(count("tiles"), 5 * (1 + kThreads * kEach));
+  EXPECT_TRUE(s.integrity_ok());
+}
+
+// Uploaders race to publish versions opened from the same current one: in each round exactly one
+// conditional publish wins (whichever connection gets the map's write lock first), the others
+// change nothing and their versions stay staged; an unconditional publish is not held back.
+TEST_P(StoreConcurrencyTest, ConditionalPublishesOfOneMapHaveExactlyOneWinnerARound) {
+  {
+    Store s = Store::open(path);
+    s.create_map("m", kOrigin, 10, 0.2);
+    s.create_version("m", std::nullopt, "base");
+    put_cell(s, "m", 1, 0, 0, 1);
+    // Nothing is current yet: a condition naming a version fails, "none" holds.
+    EXPECT_FALSE(s.publish_if_current("m", 1, 7));
+    EXPECT_EQ(s.find_version("m", 1)->state, VersionState::Staged);
+    EXPECT_TRUE(s.publish_if_current("m", 1, std::nullopt));
+  }
+  constexpr int kThreads = 4, kRounds = 5;
+  std::vector<Store> conns;
+  for (int t = 0; t < kThreads; ++t) conns.push_back(Store::open(path));
+  for (int round = 0; round < kRounds; ++round) {
+    const std::int64_t current = *conns[0].find_map("m")->current;
+    std::vector<std::int64_t> mine(kThreads);
+    for (int t = 0; t < kThreads; ++t) {
+      auto v = conns[static_cast<std::size_t>(t)].create_version("m", std::nullopt, "");
+      ASSERT_EQ(v.parent, current);
+      put_cell(conns[static_cast<std::size_t>(t)], "m", v.number, t + 1, round, static_cast<std::uint32_t>(10 * round + t));
+      mine[static_cast<std::size_t>(t)] = v.number;
+    }
+    std::vector<int> won(kThreads, -1);
+    std::vector<std::string> errors(kThreads);
+    std::atomic<int> ready{0};
+    std::vector<std::thread> threads;
+    for (int t = 0; t < kThreads; ++t)
+      threads.emplace_back([&, t] {
+        const auto i = static_cast<std::size_t>(t);
+        ready.fetch_add(1);
+        while (ready.load() < kThreads) std::this_thread::yield();  // all at once
+        try {
+          won[i] = conns[i].publish_if_current("m", mine[i], current) ? 1 : 0;
+        } catch (const std::exception& e) {
+          errors[i] = e.what();
+        }
+      });
+    for (auto& th : threads) th.join();
+    for (const auto& e : errors) EXPECT_EQ(e, "");
+    ASSERT_EQ(std::count(won.begin(), won.end(), 1), 1) << "round " << round;
+    const auto winner = static_cast<std::size_t>(std::find(won.begin(), won.end(), 1) - won.begin());
+    Store s = Store::open(path);
+    EXPECT_EQ(s.find_map("m")->current, mine[winner]);
+    for (std::size_t t = 0; t < mine.size(); ++t)
+      EXPECT_EQ(s.find_version("m", mine[t])->state, t == winner ? VersionState::Published : VersionState::Staged);
+    EXPECT_EQ(s.find_version("m", current)->state, VersionState::Retired);
+  }
+  // A loser's version is published by the unconditional call (pl-map publish: the operator's choice).
+  Store s = Store::open(path);
+  const auto staged = s.list_versions("m");
+  const auto loser = std::find_if(staged.begin(), staged.end(), [](const auto& v) { return v.state == VersionState::Staged; });
+  ASSERT_NE(loser, staged.end());
+  s.publish("m", loser->number);
+  EXPECT_EQ(s.find_map("m")->current, loser->number);
   EXPECT_TRUE(s.integrity_ok());
 }
 

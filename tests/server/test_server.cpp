@@ -19,6 +19,7 @@
 #include "pl/common/text.hpp"
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
+#include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 #include "map_fixture.hpp"
 #include "server_process.hpp"
@@ -198,6 +199,58 @@ TEST(Server, UploadThenPublishSwitchesReadersAtomically) {
   EXPECT_EQ(http.get("/v1/maps/town/versions/2/tiles/5/0").status, 200);
   // A published version takes no more writes.
   EXPECT_EQ(http.request("PUT", "/v1/maps/town/versions/2/tiles/5/0", pl::encode_tile(extra), bearer(kUploadToken)).status, 409);
+}
+
+// Two uploads opened from the same current version: the first publish wins, the second is 409
+// (its version stays staged, unseen); one opened after the win publishes. A signed publish whose
+// signature is not of the version's manifest is 422; the manifest of a staged version is the
+// uploader's to read (no-cache), of a published one everybody's (immutable).
+TEST(Server, SecondPublishFromAnOutdatedParentIs409) {
+  MapFixture f;
+  ServerProcess server(f.db, f.token_args());
+  HttpClient http(server.url());
+  auto open = [&] {
+    auto r = http.request("POST", "/v1/maps/town/versions", "", bearer(kUploadToken));
+    EXPECT_EQ(r.status, 201) << r.body;
+    return body_json(r)["version"].get<int>();
+  };
+  const int a = open(), b = open();
+  EXPECT_EQ(http.request("POST", "/v1/maps/town/versions/" + std::to_string(a) + "/publish", "", bearer(kUploadToken)).status, 200);
+  auto lost = http.request("POST", "/v1/maps/town/versions/" + std::to_string(b) + "/publish", "", bearer(kUploadToken));
+  EXPECT_EQ(lost.status, 409) << lost.body;
+  EXPECT_NE(lost.body.find("opened from version 1, and version " + std::to_string(a) + " is current now"), std::string::npos) << lost.body;
+  EXPECT_EQ(body_json(http.get("/v1/maps/town"))["current_version"], a);
+  EXPECT_EQ(http.get("/v1/maps/town/versions/" + std::to_string(b) + "/tiles").status, 404);
+  const int c = open();
+  // The staged manifest: the uploader's only, never cached; it names its parent.
+  const std::string mt = "/v1/maps/town/versions/" + std::to_string(c) + "/manifest";
+  EXPECT_EQ(http.get(mt).status, 404);
+  auto staged = http.get(mt, bearer(kUploadToken));
+  ASSERT_EQ(staged.status, 200) << staged.body;
+  EXPECT_EQ(staged.header("cache-control"), "private, no-cache");
+  EXPECT_NE(staged.body.find("\nparent " + std::to_string(a) + "\n"), std::string::npos) << staged.body;
+  EXPECT_EQ(pl::signing::parse_manifest_text(staged.body).version, c);
+  // A signature by a key, of other bytes: refused, nothing published, nothing stored.
+  const auto key = pl::signing::SigningKey::generate();
+  const json wrong = {{"public_key", pl::signing::encode_base64(key.public_key())}, {"signature", pl::signing::encode_base64(key.sign("other"))}};
+  auto bad = http.request("POST", "/v1/maps/town/versions/" + std::to_string(c) + "/publish", wrong.dump(), bearer(kUploadToken));
+  EXPECT_EQ(bad.status, 422) << bad.body;
+  EXPECT_NE(bad.body.find("does not verify"), std::string::npos) << bad.body;
+  EXPECT_EQ(http.request("POST", "/v1/maps/town/versions/" + std::to_string(c) + "/publish", "{\"public_key\": 1}", bearer(kUploadToken)).status, 400);
+  EXPECT_FALSE(pl::store::Store::open(f.db, false).signature("town", c));
+  const json right = {{"public_key", pl::signing::encode_base64(key.public_key())}, {"signature", pl::signing::encode_base64(key.sign(staged.body))}};
+  EXPECT_EQ(http.request("POST", "/v1/maps/town/versions/" + std::to_string(c) + "/publish", right.dump(), bearer(kUploadToken)).status, 200);
+  auto published = http.get(mt);
+  ASSERT_EQ(published.status, 200);
+  EXPECT_EQ(published.header("cache-control"), "public, max-age=31536000, immutable");
+  EXPECT_EQ(pl::signing::verify_signed_manifest(published.body, {key.public_key()}).text, staged.body);
+  auto store = pl::store::Store::open(f.db, false);
+  std::vector<std::string> actions;
+  for (const auto& e : store.upload_log("town"))
+    if (e.who.rfind("token ", 0) == 0) actions.push_back(e.action);
+  EXPECT_EQ(actions, (std::vector<std::string>{"create_version", "create_version", "publish", "publish_refused", "create_version", "publish"}));
+  EXPECT_EQ(store.find_version("town", b)->state, pl::store::VersionState::Staged);
+  EXPECT_TRUE(store.integrity_ok());
 }
 
 TEST(Server, KillDuringUploadKeepsThePreviousVersion) {

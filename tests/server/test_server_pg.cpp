@@ -3,9 +3,11 @@
 // replica reaches the other.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <nlohmann/json.hpp>
 #include <thread>
+#include <vector>
 
 #include "pl/common/cloud_io.hpp"
 #include "pl/schema/http_client.hpp"
@@ -60,5 +62,69 @@ TEST(ServerOnPostgres, ReplicasServeOneDatabaseAndSeeEachOthersPublishes) {
   for (const auto& e : store.upload_log("town"))
     if (e.who.rfind("token ", 0) == 0) by_api.push_back(e.action);
   EXPECT_EQ(by_api, (std::vector<std::string>{"create_version", "publish"}));
+  EXPECT_TRUE(store.integrity_ok());
+}
+
+// Two uploaders, each through its own replica, publish versions opened from the same current one
+// at the same moment, round after round: one gets 200, the other 409 naming what to do; the
+// winner is what both replicas serve within a second and the loser's version stays staged
+// (invisible); the refusal is in the upload log; the store is sound after.
+TEST(ServerOnPostgres, UploadersPublishingAtOnceOneWinsTheOtherGets409) {
+  pl::test::MapFixture f(pl::test::PgCluster::get().new_database());
+  ServerProcess a(f.db, f.token_args()), b(f.db);
+  HttpClient ha(a.url()), hb(b.url());
+  HttpClient* via[2] = {&ha, &hb};
+  const auto auth = bearer(pl::test::kUploadToken);
+  constexpr int kRounds = 4;
+  for (int round = 0; round < kRounds; ++round) {
+    long long opened[2];
+    for (int i = 0; i < 2; ++i) {
+      auto r = via[i]->request("POST", "/v1/maps/town/versions", "", auth);
+      ASSERT_EQ(r.status, 201) << r.body;
+      opened[i] = json::parse(r.body)["version"].get<long long>();
+    }
+    int status[2] = {0, 0};
+    std::string body[2];
+    std::atomic<int> ready{0};
+    std::vector<std::thread> threads;
+    for (int i = 0; i < 2; ++i)
+      threads.emplace_back([&, i] {
+        HttpClient own(i == 0 ? a.url() : b.url());  // a connection of the thread's own
+        ready.fetch_add(1);
+        while (ready.load() < 2) std::this_thread::yield();
+        auto r = own.request("POST", "/v1/maps/town/versions/" + std::to_string(opened[i]) + "/publish", "", auth);
+        status[i] = r.status;
+        body[i] = r.body;
+      });
+    for (auto& t : threads) t.join();
+    ASSERT_TRUE((status[0] == 200 && status[1] == 409) || (status[0] == 409 && status[1] == 200))
+        << "round " << round << ": " << status[0] << " " << body[0] << " / " << status[1] << " " << body[1];
+    const int winner = status[0] == 200 ? 0 : 1, loser = 1 - winner;
+    EXPECT_NE(body[loser].find("another upload was published first"), std::string::npos) << body[loser];
+    EXPECT_NE(body[loser].find("pl-map push"), std::string::npos) << body[loser];
+    // Both replicas serve the winner within a second; the loser's version stays out of sight.
+    for (HttpClient* h : via) {
+      const auto since = std::chrono::steady_clock::now();
+      long long current = 0;
+      while (current != opened[winner] && std::chrono::steady_clock::now() - since < std::chrono::seconds(1)) {
+        current = json::parse(h->get("/v1/maps/town/roi?x=10&y=10&radius=30").body)["version"].get<long long>();
+        if (current != opened[winner]) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+      EXPECT_EQ(current, opened[winner]) << "round " << round;
+      EXPECT_EQ(h->get("/v1/maps/town/versions/" + std::to_string(opened[loser]) + "/tiles").status, 404);
+    }
+  }
+  auto store = pl::store::Store::open(f.db, false);
+  int refused = 0, published = 0;
+  for (const auto& e : store.upload_log("town")) {
+    refused += e.action == "publish_refused";
+    published += e.action == "publish" && e.who.rfind("token ", 0) == 0;
+  }
+  EXPECT_EQ(refused, kRounds);
+  EXPECT_EQ(published, kRounds);
+  std::vector<std::int64_t> published_now;
+  for (const auto& v : store.list_versions("town"))
+    if (v.state == pl::store::VersionState::Published) published_now.push_back(v.number);
+  EXPECT_EQ(published_now, std::vector<std::int64_t>{*store.find_map("town")->current});
   EXPECT_TRUE(store.integrity_ok());
 }

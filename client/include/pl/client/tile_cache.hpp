@@ -73,6 +73,12 @@ class TileCache {
   void put_tiles(const std::string& map, long long version, const std::vector<CachedTile>& tiles);
   std::vector<CachedTile> tiles(const std::string& map, long long version) const;
 
+  // A version's signed manifest as the server sent it (pl/schema/signed_manifest.hpp), kept so
+  // that a client with fleet keys starts with the server down. Stored as given: the reader
+  // verifies it (a body altered on disk fails its signature).
+  void put_signed_manifest(const std::string& map, long long version, std::string_view body);
+  std::optional<std::string> signed_manifest(const std::string& map, long long version) const;
+
  private:
   std::string path_;
   void* db_ = nullptr;  // sqlite3*

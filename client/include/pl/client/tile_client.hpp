@@ -18,6 +18,12 @@
 //   (with jitter), keeps serving what memory and disk hold, and says what is wrong in status().
 // - The pinned version's places (its place-recognition descriptors) are fetched on request
 //   (places()), once, and kept in memory.
+// - With fleet_keys (signed maps), a version is used only once its signed manifest verifies against
+//   one of the fleet's public keys; its tiles and their hashes are then all known from it (no ROI
+//   queries), so a tile is used only with the bytes its publisher signed. A manifest that does not
+//   verify is refused and the tiles in use stay; tile bytes that do not match are refused, asked for
+//   once more by another URL (GET .../versions/{v}/tiles/{tx}/{ty}: another HTTP cache entry), then
+//   left alone for 30 s while the other tiles come. Each refusal counts in status().rejected.
 #pragma once
 
 #include <Eigen/Core>
@@ -51,6 +57,12 @@ struct TileClientConfig {
   std::string token;                 // bearer token when the server requires one for reads
   std::string ca_file;               // https: PEM file of the CA the server's certificate must chain to; empty: the system's
   bool insecure_http = false;        // allow plain http:// to another machine (maps and token in clear)
+  // PEM file of the fleet's Ed25519 public key(s) (pl-map key-gen). When set, a version is used only
+  // once its signed manifest (pl/schema/signed_manifest.hpp) verifies against one of them, and each
+  // tile only with the hash that manifest gives it: a tile or manifest altered anywhere between the
+  // store and the vehicle is refused (counted in status().rejected) and never used. Empty: versions
+  // are not checked for signatures (tile bytes are still checked against the server's hashes).
+  std::string fleet_keys;
 };
 
 struct TileClientStatus {
@@ -65,6 +77,9 @@ struct TileClientStatus {
   std::size_t failures = 0;   // requests that failed (unreachable, timeout, error status, bad bytes)
   std::size_t retries = 0;    // requests sent again after a failure (one per backoff step)
   std::size_t corrupt = 0;    // disk cache entries dropped because their bytes no longer matched
+  std::size_t rejected = 0;   // answers refused and never used: tile bytes that did not match their hash,
+                              // signed manifests that did not verify (altered in a cache or on the network)
+  std::string signed_by;      // with fleet_keys: the id of the key the version in use is signed with
   std::size_t evicted = 0;    // tiles dropped from memory to stay within memory_mb
   std::string last_error;     // the last problem, naming what to do; empty when fine (cleared by
                               // the next successful request)

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <string>
 
+#include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 
 namespace pl::maps {
@@ -22,6 +23,11 @@ std::string maps_text(const store::Store& s);
 std::string versions_text(const store::Store& s, const std::string& map);
 // A version's manifest (0: the current one): state, origin, grid, tiles, area, points, bytes, bounds.
 std::string version_text(const store::Store& s, const std::string& map, std::int64_t version);
+
+// Publishes a staged version in one transaction with its upload log entry (by "pl-map"). With a
+// key, the version's manifest (pl/schema/signed_manifest.hpp) is signed and stored with it in that
+// transaction, read again under the write lock to be sure it is the one published.
+void publish_version(store::Store& s, const std::string& map, std::int64_t version, const signing::SigningKey* key);
 
 struct VersionDiff {
   std::size_t added = 0, removed = 0, changed = 0, unchanged = 0;

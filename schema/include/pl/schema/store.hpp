@@ -136,6 +136,13 @@ class Store {
   // Makes a staged version current in one transaction; the previously current one becomes retired.
   // Throws pl::Error, naming the version and its state, unless the version is staged.
   void publish(const std::string& map, std::int64_t number);
+  // publish, on condition that the map's current version is still `expected_current` (empty: none
+  // published yet), which uploaders pass as the version's parent: the version they opened from the
+  // current one. Returns false, changing nothing, when another version was published meanwhile. The
+  // condition is checked under the map's write lock, in publish's transaction: of two uploaders
+  // publishing versions opened from the same current one, exactly one wins, whatever the
+  // connections or machines. Throws as publish does.
+  bool publish_if_current(const std::string& map, std::int64_t number, std::optional<std::int64_t> expected_current);
   // Makes the previously published version current again (the current one is retired); returns it.
   // "Previously published" is the version that was current when the current one was published, so
   // repeated rollbacks walk back through the publish history (a rolled-back version is never made
@@ -174,6 +181,21 @@ class Store {
   bool delete_places(const std::string& map, std::int64_t version);
   std::optional<std::string> places(const std::string& map, std::int64_t version) const;
   std::optional<std::string> places_hash(const std::string& map, std::int64_t version) const;
+
+  // Signatures: at most one a version, the Ed25519 signature of its manifest
+  // (pl/schema/signed_manifest.hpp) by the key of whoever publishes it. put_signature writes a
+  // staged version only (pl::Error naming the version and its state otherwise) and replaces the
+  // version's signature; sign just before publishing, in publish's Transaction, so that no tile
+  // changes between. It takes a 32-byte public key and a 64-byte signature; the store does not
+  // check that the signature verifies (signed_manifest.hpp does, and the vehicle). signature
+  // returns nothing for an unknown map or version or an unsigned version. A new version never
+  // inherits its parent's signature.
+  struct Signature {
+    std::string public_key, signature;  // 32 and 64 bytes
+    std::string signed_at;              // UTC, ISO 8601
+  };
+  void put_signature(const std::string& map, std::int64_t version, std::string_view public_key, std::string_view signature);
+  std::optional<Signature> signature(const std::string& map, std::int64_t version) const;
 
   // Tokens are stored hashed (SHA-256), never in plain. add_token returns the new token's id and
   // throws pl::Error for an empty token or one that is already registered (revoked or not).

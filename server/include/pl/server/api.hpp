@@ -38,6 +38,10 @@ struct ApiConfig {
   // Requests that need the upload or admin role, per token: this many a second on average, bursts
   // of upload_burst (429 with Retry-After beyond). 0: no limit.
   double upload_rate = 200, upload_burst = 400;
+  // The fleet's Ed25519 public keys (32 bytes each; pl-server --fleet-key). When any is given, a
+  // publish must carry a signature of the version's manifest by one of them; without, an unsigned
+  // publish is taken and a signed one needs only a signature that verifies.
+  std::vector<std::string> fleet_keys;
 };
 
 struct ApiRequest {
