@@ -20,6 +20,26 @@ if [[ ! -f "$work/maps.sqlite" ]]; then
   "$bin/pl-map" publish --db "$work/maps.sqlite.partial" --map town --version 1 >/dev/null
   mv "$work/maps.sqlite.partial" "$work/maps.sqlite"
 fi
+# The same store also holds a map of small tiles (about 4 KB each: a few hundred points of sparse
+# ground a tile), for the per-request cost that small answers expose.
+if ! "$bin/pl-map" list --db "$work/maps.sqlite" 2>/dev/null | grep -q '^small'; then
+  python3 - "$work/small.pcd" <<'PY'
+import math, random, sys
+random.seed(7)
+pts = []
+for tx in range(20):
+    for ty in range(20):
+        for _ in range(260):
+            x, y = tx * 20 + random.uniform(0.1, 19.9), ty * 20 + random.uniform(0.1, 19.9)
+            pts.append((x, y, 0.3 * math.sin(0.2 * x) + 0.2 * math.cos(0.3 * y) + random.uniform(0, 0.05)))
+with open(sys.argv[1], "w") as f:
+    f.write("# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n")
+    f.write("WIDTH %d\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS %d\nDATA ascii\n" % (len(pts), len(pts)))
+    f.writelines("%.3f %.3f %.3f\n" % p for p in pts)
+PY
+  "$bin/pl-map" tile --cloud "$work/small.pcd" --db "$work/maps.sqlite" --map small --origin 49.0,8.4,100 >/dev/null
+  "$bin/pl-map" publish --db "$work/maps.sqlite" --map small --version 1 >/dev/null
+fi
 "$bin/bench_tiles" "$work/maps.sqlite" town
 
 port_ours=18481
@@ -31,12 +51,14 @@ for _ in $(seq 50); do curl -sf "http://127.0.0.1:$port_ours/healthz" >/dev/null
 
 # The same bytes as static files under the same paths, for nginx.
 rm -rf "$work/www"
-curl -sf "http://127.0.0.1:$port_ours/v1/maps/town/roi?x=100&y=50&radius=2000" |
-  python3 -c 'import json,sys; [print(t["url"]) for t in json.load(sys.stdin)["tiles"]]' >"$work/paths.txt"
-while read -r p; do
-  mkdir -p "$work/www$(dirname "$p")"
-  curl -sf "http://127.0.0.1:$port_ours$p" -o "$work/www$p"
-done <"$work/paths.txt"
+for map in town small; do
+  curl -sf "http://127.0.0.1:$port_ours/v1/maps/$map/roi?x=100&y=50&radius=2000" |
+    python3 -c 'import json,sys; [print(t["url"]) for t in json.load(sys.stdin)["tiles"]]' >"$work/paths-$map.txt"
+  while read -r p; do
+    mkdir -p "$work/www$(dirname "$p")"
+    curl -sf "http://127.0.0.1:$port_ours$p" -o "$work/www$p"
+  done <"$work/paths-$map.txt"
+done
 cat >"$work/nginx.conf" <<CONF
 worker_processes 2;
 pid $work/nginx.pid;
@@ -55,13 +77,15 @@ nginx -c "$work/nginx.conf" -p "$work"
 sleep 0.3
 
 # wrk walks the tile paths round robin.
-{
-  echo "paths = {"
-  sed 's/.*/  "&",/' "$work/paths.txt"
-  echo "}"
-  echo 'i = 0'
-  echo 'request = function() i = (i % #paths) + 1; return wrk.format("GET", paths[i]) end'
-} >"$work/tiles.lua"
+for map in town small; do
+  {
+    echo "paths = {"
+    sed 's/.*/  "&",/' "$work/paths-$map.txt"
+    echo "}"
+    echo 'i = 0'
+    echo 'request = function() i = (i % #paths) + 1; return wrk.format("GET", paths[i]) end'
+  } >"$work/tiles-$map.lua"
+done
 # ROI queries at points along the loop, with the client's current tiles unknown (worst case).
 python3 - "$work/roi.lua" <<'PY'
 import math, sys
@@ -86,11 +110,13 @@ wrk_once() {
 # Alternate short rounds, ours then nginx, so that a ratio holds when the shared machine's speed drifts;
 # quote medians.
 rounds=5
-: >"$work/rounds.txt"
-for r in $(seq $rounds); do
-  read -r a ap < <(run_wrk "http://127.0.0.1:$port_ours" "$work/tiles.lua" 4)
-  read -r b bp < <(run_wrk "http://127.0.0.1:$port_nginx" "$work/tiles.lua" 4)
-  echo "$a $ap $b $bp" >>"$work/rounds.txt"
+for map in town small; do
+  : >"$work/rounds-$map.txt"
+  for r in $(seq $rounds); do
+    read -r a ap < <(run_wrk "http://127.0.0.1:$port_ours" "$work/tiles-$map.lua" 4)
+    read -r b bp < <(run_wrk "http://127.0.0.1:$port_nginx" "$work/tiles-$map.lua" 4)
+    echo "$a $ap $b $bp" >>"$work/rounds-$map.txt"
+  done
 done
 # ROI queries on the same server (2 threads), then on one with a single thread: one origin core.
 port_one=18483
@@ -104,9 +130,11 @@ for r in 1 2 3; do
   read -r b bp < <(run_wrk "http://127.0.0.1:$port_one" "$work/roi.lua" 4)
   echo "$a $ap $b $bp" >>"$work/roi_rounds.txt"
 done
-tiles=$(wc -l <"$work/paths.txt")
-echo "tile GET, $tiles distinct tiles round robin, wrk -t1 -c64 (keep-alive), 2 server threads, $rounds alternating rounds of 4 s:"
-python3 - "$work/rounds.txt" <<'PY'
+for map in town small; do
+tiles=$(wc -l <"$work/paths-$map.txt")
+mean_kb=$(du -sb --apparent-size "$work/www/v1/maps/$map" | awk -v n="$tiles" '{printf "%.1f", $1 / n / 1024}')
+echo "tile GET, map $map: $tiles distinct tiles of $mean_kb KB on average round robin, wrk -t1 -c64 (keep-alive), 2 server threads, $rounds alternating rounds of 4 s:"
+python3 - "$work/rounds-$map.txt" <<'PY'
 import statistics, sys
 rows = [list(map(float, l.split())) for l in open(sys.argv[1]) if len(l.split()) == 4]
 if not rows:
@@ -117,6 +145,7 @@ print("  pl-server  %8.0f requests/s  p99 %5.2f ms  (median; rounds: %s)" % (med
 print("  nginx      %8.0f requests/s  p99 %5.2f ms  (static files of the same bytes; rounds: %s)" % (med(2), med(3), ", ".join("%.0f" % r[2] for r in rows)))
 print("  pl-server / nginx: median %.2fx (rounds: %s); target >= 0.8x, p99 <= 5 ms" % (statistics.median(ratios), ", ".join("%.2f" % x for x in ratios)))
 PY
+done
 python3 - "$work/roi_rounds.txt" <<'PY'
 import statistics, sys
 rows = [list(map(float, l.split())) for l in open(sys.argv[1]) if len(l.split()) == 4]

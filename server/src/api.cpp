@@ -857,6 +857,7 @@ ApiResponse Api::handle(const ApiRequest& req) {
         r.status = 304;
         r.body.clear();
         r.content_type.clear();
+        r.headers.emplace_back("Vary", "Accept-Encoding");  // as the 200 it stands for
       }
     }
     // JSON answers: compressed when the client accepts gzip and it pays (a few hundred bytes on).

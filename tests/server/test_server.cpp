@@ -116,6 +116,25 @@ TEST(Server, EtagAndNotModified) {
   EXPECT_EQ(blob.status, 200);
   EXPECT_EQ(blob.body, first.body);
   EXPECT_EQ(http.get("/v1/blobs/" + t["hash"].get<std::string>(), {{"If-None-Match", first.header("etag")}}).status, 304);
+
+  // Map answers change as versions are published: a cache keeps them a second, then revalidates
+  // them by their weak ETag (with or without gzip, the same tag); a token's answers are private.
+  for (const std::string target : {"/v1/maps", "/v1/maps/town", "/v1/maps/town/roi?x=0&y=0&radius=30", "/v1/maps/town/versions/1/tiles"}) {
+    auto a = http.get(target), gz = http.get(target, {{"Accept-Encoding", "gzip"}});
+    ASSERT_EQ(a.status, 200) << target;
+    EXPECT_EQ(a.header("cache-control"), "public, max-age=1") << target;
+    EXPECT_EQ(a.header("etag").rfind("W/\"", 0), 0u) << target << " " << a.header("etag");
+    EXPECT_EQ(gz.header("etag"), a.header("etag")) << target;
+    auto not_modified = http.get(target, {{"If-None-Match", a.header("etag")}});
+    EXPECT_EQ(not_modified.status, 304) << target;
+    EXPECT_TRUE(not_modified.body.empty());
+    EXPECT_EQ(not_modified.header("vary"), "Accept-Encoding") << target;
+    EXPECT_EQ(http.get(target, {{"If-None-Match", "W/\"0123\""}}).status, 200) << target;
+  }
+  MapFixture g;
+  ServerProcess with_tokens(g.db, g.token_args());
+  HttpClient h2(with_tokens.url());
+  EXPECT_EQ(h2.get("/v1/maps/town", {{"Authorization", "Bearer " + kReadToken}}).header("cache-control"), "private, no-cache");
 }
 
 TEST(Server, RoiMatchesTheTilesThatTouchTheDisc) {
