@@ -32,6 +32,7 @@ using pl::client::TileClient;
 using pl::client::TileClientConfig;
 using pl::test::ServerProcess;
 using pl::test::TempDir;
+using pl::test::eventually;
 using Eigen::Vector2d;
 
 namespace {
@@ -178,16 +179,6 @@ struct SignedFixture {
     return out;
   }
 };
-
-template <class F>
-bool eventually(F done, double seconds = 30.0) {
-  auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return true;
-}
 
 std::map<pl::TileKey, std::string> held(const TileClient& c, const Vector2d& p, double r) {
   std::map<pl::TileKey, std::string> out;

@@ -42,6 +42,7 @@ using pl::client::TileClient;
 using pl::client::TileClientConfig;
 using pl::test::ServerProcess;
 using pl::test::TempDir;
+using pl::test::eventually;
 using Eigen::Vector2d;
 
 namespace pl {
@@ -106,17 +107,6 @@ TileClientConfig config(const std::string& server, double radius_m) {
   c.retry_min_s = 0.05;
   c.retry_max_s = 0.5;
   return c;
-}
-
-// Polls until `done` or the deadline (a generous one: sanitizer builds on a busy machine are slow).
-template <class F>
-bool eventually(F done, double seconds = 30.0) {
-  auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return true;
 }
 
 // What the server says: key -> hash of the tiles of a version that touch a disc.

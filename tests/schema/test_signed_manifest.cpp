@@ -3,10 +3,10 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
-#include <functional>
 #include <string>
 #include <vector>
 
+#include "error_of.hpp"
 #include "pl/common/error.hpp"
 #include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
@@ -38,15 +38,6 @@ Manifest sample() {
   return m;
 }
 
-std::string message_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "";
-}
-
 TEST(SignedManifest, TextIsCanonicalAndReadsBackExactly) {
   const Manifest m = sample();
   const std::string text = pl::signing::manifest_text(m);
@@ -76,7 +67,7 @@ TEST(SignedManifest, TextIsCanonicalAndReadsBackExactly) {
 
 TEST(SignedManifest, TextThatIsNotExactlyCanonicalIsRefusedNamingTheLine) {
   const std::string text = pl::signing::manifest_text(sample());
-  auto refused = [](const std::string& t) { return message_of([&] { pl::signing::parse_manifest_text(t); }); };
+  auto refused = [](const std::string& t) { return pl::test::error_of([&] { pl::signing::parse_manifest_text(t); }); };
   auto replaced = [&](const std::string& from, const std::string& to) {
     std::string t = text;
     const auto at = t.find(from);
@@ -115,9 +106,9 @@ TEST(SignedManifest, SignedByTheFleetKeyVerifiesAndAnyChangedByteDoesNot) {
   EXPECT_EQ(ok.manifest.tiles, sample().tiles);
 
   // Not among the trusted keys; no signature at all; every single byte of the text flipped.
-  EXPECT_NE(message_of([&] { pl::signing::verify_signed_manifest(body, {other.public_key()}); }).find("not among the fleet's keys"),
+  EXPECT_NE(pl::test::error_of([&] { pl::signing::verify_signed_manifest(body, {other.public_key()}); }).find("not among the fleet's keys"),
             std::string::npos);
-  EXPECT_NE(message_of([&] { pl::signing::verify_signed_manifest(text, {key.public_key()}); }).find("no signature"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { pl::signing::verify_signed_manifest(text, {key.public_key()}); }).find("no signature"), std::string::npos);
   int refused = 0;
   for (std::size_t i = 0; i < text.size(); ++i) {
     std::string t = body;
@@ -131,7 +122,7 @@ TEST(SignedManifest, SignedByTheFleetKeyVerifiesAndAnyChangedByteDoesNot) {
   EXPECT_EQ(refused, static_cast<int>(text.size()));
   // A signature of other bytes, and the right signature under another key's name.
   const std::string forged = text + pl::signing::signature_line(key.public_key(), key.sign(text + " "));
-  EXPECT_NE(message_of([&] { pl::signing::verify_signed_manifest(forged, {key.public_key()}); }).find("does not verify"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { pl::signing::verify_signed_manifest(forged, {key.public_key()}); }).find("does not verify"), std::string::npos);
   const std::string renamed = text + pl::signing::signature_line(other.public_key(), key.sign(text));
   EXPECT_THROW(pl::signing::verify_signed_manifest(renamed, {other.public_key()}), ManifestError);
   // Keys from a fixed seed are the same key every time (the fuzz seeds' fleet key).
@@ -147,7 +138,7 @@ TEST(SignedManifest, KeyFilesArePemThatOpensslWritesAndReads) {
   struct stat st {};
   ASSERT_EQ(::stat((dir / "fleet.key").c_str(), &st), 0);
   EXPECT_EQ(st.st_mode & 0777, 0600u);  // the private key: its owner's only
-  EXPECT_NE(message_of([&] { key.save(dir / "fleet.key"); }).find("never written over"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { key.save(dir / "fleet.key"); }).find("never written over"), std::string::npos);
   const SigningKey loaded = SigningKey::load(dir / "fleet.key");
   EXPECT_EQ(loaded.public_key(), key.public_key());
   const std::string text = "anything";
@@ -172,13 +163,13 @@ TEST(SignedManifest, KeyFilesArePemThatOpensslWritesAndReads) {
 
   // Files that are not what they should be: the file and the fix named.
   pl::test::write_file(dir / "junk.pub", "not a key\n");
-  EXPECT_NE(message_of([&] { pl::signing::load_public_keys(dir / "junk.pub"); }).find("junk.pub: no PEM public key"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { pl::signing::load_public_keys(dir / "junk.pub"); }).find("junk.pub: no PEM public key"), std::string::npos);
   pl::test::write_file(dir / "tail.pub", pl::signing::public_key_pem(key.public_key()) + "-----BEGIN PUBLIC KEY-----\nAAAA\n");
-  EXPECT_NE(message_of([&] { pl::signing::load_public_keys(dir / "tail.pub"); }).find("after key 1"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { pl::signing::load_public_keys(dir / "tail.pub"); }).find("after key 1"), std::string::npos);
   ASSERT_EQ(pl::test::run("openssl genpkey -algorithm ec -pkeyopt ec_paramgen_curve:P-256 -out " + dir / "ec.key" + " 2>&1").exit_code, 0);
-  EXPECT_NE(message_of([&] { SigningKey::load(dir / "ec.key"); }).find("not an Ed25519 one"), std::string::npos);
-  EXPECT_NE(message_of([&] { SigningKey::load(dir / "fleet.pub"); }).find("not a PEM private key"), std::string::npos);
-  EXPECT_NE(message_of([&] { SigningKey::load(dir / "missing.key"); }).find("cannot open"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { SigningKey::load(dir / "ec.key"); }).find("not an Ed25519 one"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { SigningKey::load(dir / "fleet.pub"); }).find("not a PEM private key"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { SigningKey::load(dir / "missing.key"); }).find("cannot open"), std::string::npos);
 }
 
 TEST(SignedManifest, Base64IsStrictAndCanonical) {
@@ -226,13 +217,13 @@ TEST_P(StoreSignatureTest, AVersionIsSignedWhileStagedAndTheSignatureStaysWithIt
   EXPECT_EQ(sig->signed_at.size(), 24u) << sig->signed_at;  // 2024-05-01T10:11:12.345Z
 
   // Published: read-only, through the store and under it (the triggers).
-  EXPECT_NE(message_of([&] { s.put_signature("town", 1, key.public_key(), key.sign("other")); }).find("is published"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { s.put_signature("town", 1, key.public_key(), key.sign("other")); }).find("is published"), std::string::npos);
   EXPECT_NE(raw_exec("UPDATE signatures SET signed = signed"), "");
   EXPECT_NE(raw_exec("DELETE FROM signatures"), "");
   // Arguments of the wrong size are refused before the engine.
   s.create_version("town", std::nullopt, "");
-  EXPECT_NE(message_of([&] { s.put_signature("town", 2, "short", key.sign(text)); }).find("32-byte public key"), std::string::npos);
-  EXPECT_NE(message_of([&] { s.put_signature("nowhere", 1, key.public_key(), key.sign(text)); }).find("unknown map"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { s.put_signature("town", 2, "short", key.sign(text)); }).find("32-byte public key"), std::string::npos);
+  EXPECT_NE(pl::test::error_of([&] { s.put_signature("nowhere", 1, key.public_key(), key.sign(text)); }).find("unknown map"), std::string::npos);
   // A new version does not inherit its parent's signature; its manifest names the parent.
   EXPECT_FALSE(s.signature("town", 2));
   EXPECT_EQ(pl::signing::manifest_of(s, "town", 2).parent, 1);
