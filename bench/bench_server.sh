@@ -22,14 +22,14 @@ if [[ ! -f "$work/maps.sqlite" ]]; then
 fi
 # The same store also holds a map of small tiles (about 4 KB each: a few hundred points of sparse
 # ground a tile), for the per-request cost that small answers expose.
-if ! "$bin/pl-map" list --db "$work/maps.sqlite" 2>/dev/null | grep -q '^small'; then
+if ! "$bin/pl-map" list --db "$work/maps.sqlite" 2>/dev/null | grep -q "^tiles4k"; then
   python3 - "$work/small.pcd" <<'PY'
 import math, random, sys
 random.seed(7)
 pts = []
 for tx in range(20):
     for ty in range(20):
-        for _ in range(260):
+        for _ in range(900):
             x, y = tx * 20 + random.uniform(0.1, 19.9), ty * 20 + random.uniform(0.1, 19.9)
             pts.append((x, y, 0.3 * math.sin(0.2 * x) + 0.2 * math.cos(0.3 * y) + random.uniform(0, 0.05)))
 with open(sys.argv[1], "w") as f:
@@ -37,8 +37,8 @@ with open(sys.argv[1], "w") as f:
     f.write("WIDTH %d\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS %d\nDATA ascii\n" % (len(pts), len(pts)))
     f.writelines("%.3f %.3f %.3f\n" % p for p in pts)
 PY
-  "$bin/pl-map" tile --cloud "$work/small.pcd" --db "$work/maps.sqlite" --map small --origin 49.0,8.4,100 >/dev/null
-  "$bin/pl-map" publish --db "$work/maps.sqlite" --map small --version 1 >/dev/null
+  "$bin/pl-map" tile --cloud "$work/small.pcd" --db "$work/maps.sqlite" --map tiles4k --origin 49.0,8.4,100 >/dev/null
+  "$bin/pl-map" publish --db "$work/maps.sqlite" --map tiles4k --version 1 >/dev/null
 fi
 "$bin/bench_tiles" "$work/maps.sqlite" town
 
@@ -51,7 +51,7 @@ for _ in $(seq 50); do curl -sf "http://127.0.0.1:$port_ours/healthz" >/dev/null
 
 # The same bytes as static files under the same paths, for nginx.
 rm -rf "$work/www"
-for map in town small; do
+for map in town tiles4k; do
   curl -sf "http://127.0.0.1:$port_ours/v1/maps/$map/roi?x=100&y=50&radius=2000" |
     python3 -c 'import json,sys; [print(t["url"]) for t in json.load(sys.stdin)["tiles"]]' >"$work/paths-$map.txt"
   while read -r p; do
@@ -77,7 +77,7 @@ nginx -c "$work/nginx.conf" -p "$work"
 sleep 0.3
 
 # wrk walks the tile paths round robin.
-for map in town small; do
+for map in town tiles4k; do
   {
     echo "paths = {"
     sed 's/.*/  "&",/' "$work/paths-$map.txt"
@@ -110,7 +110,7 @@ wrk_once() {
 # Alternate short rounds, ours then nginx, so that a ratio holds when the shared machine's speed drifts;
 # quote medians.
 rounds=5
-for map in town small; do
+for map in town tiles4k; do
   : >"$work/rounds-$map.txt"
   for r in $(seq $rounds); do
     read -r a ap < <(run_wrk "http://127.0.0.1:$port_ours" "$work/tiles-$map.lua" 4)
@@ -130,7 +130,7 @@ for r in 1 2 3; do
   read -r b bp < <(run_wrk "http://127.0.0.1:$port_one" "$work/roi.lua" 4)
   echo "$a $ap $b $bp" >>"$work/roi_rounds.txt"
 done
-for map in town small; do
+for map in town tiles4k; do
 tiles=$(wc -l <"$work/paths-$map.txt")
 mean_kb=$(du -sb --apparent-size "$work/www/v1/maps/$map" | awk -v n="$tiles" '{printf "%.1f", $1 / n / 1024}')
 echo "tile GET, map $map: $tiles distinct tiles of $mean_kb KB on average round robin, wrk -t1 -c64 (keep-alive), 2 server threads, $rounds alternating rounds of 4 s:"
