@@ -292,17 +292,20 @@ void check_before_writing(const Db& db, bool create) {
   snapshot.end();
 }
 
+// Every pending migration in one transaction: a file that a later one fails on (damage only a write
+// finds, say) is left exactly as it was, as a refused open promises, and no connection ever sees a
+// schema between two versions.
 void migrate(const Db& db) {
   const int latest = Store::latest_schema_version();
+  if (pragma_int(db, "PRAGMA user_version") >= latest) return;
   // Foreign keys stay off while migrating (a later migration may rebuild a table, which the
-  // enforcement would block); each migration checks them before it commits.
+  // enforcement would block); each migration checks them before the next.
   exec(db, "PRAGMA foreign_keys = OFF");
+  WriteScope tx(db);
+  // Another connection may have migrated while this one waited for the write lock.
+  std::int64_t now = pragma_int(db, "PRAGMA user_version");
+  if (now > latest) sqlite::refuse_newer(db, now, latest);
   for (const Migration& m : kMigrations) {
-    if (pragma_int(db, "PRAGMA user_version") >= m.number) continue;
-    WriteScope tx(db);
-    // Another connection may have migrated while this one waited for the write lock.
-    std::int64_t now = pragma_int(db, "PRAGMA user_version");
-    if (now > latest) sqlite::refuse_newer(db, now, latest);
     if (now >= m.number) continue;
     char* err = nullptr;
     if (sqlite3_exec(db.get(), m.sql, nullptr, nullptr, &err) != SQLITE_OK) {
@@ -318,8 +321,9 @@ void migrate(const Db& db) {
     }
     // PRAGMA takes no bound parameters; the number is this build's own integer.
     exec(db, ("PRAGMA user_version = " + num(m.number)).c_str());
-    tx.commit();
+    now = m.number;
   }
+  tx.commit();
   exec(db, "PRAGMA foreign_keys = ON");
 }
 

@@ -370,29 +370,28 @@ void PgStore::check_and_migrate(bool create) {
     throw Error(name_ + ": the database is empty, not a map store: create a store with pl-map (or is this the "
                         "right database?)");
   if (s.version == kPgLatest) return;  // the usual open: nothing written
-  for (const PgMigration& m : kPgMigrations) {
-    if (s.version >= m.number) continue;
-    Work w(*conn_);
-    w.exec("BEGIN");
-    try {
-      // Concurrent opens take turns here; the one that waited finds the work done.
-      w.exec_params("SELECT pg_advisory_xact_lock($1)", kMigrationLock);
-      s = read_state(w);
-      check(s);
-      if (s.version < m.number) {
-        try {
-          w.exec(m.sql);
-        } catch (const pqxx::sql_error& e) {
-          throw Error(name_ + ": schema migration pg/" + m.name + " failed: " + trimmed(e.what()));
-        }
-        w.exec_params("INSERT INTO schema_migrations (number, name) VALUES ($1, $2)", m.number, m.name);
-        s.version = m.number;
+  // Every pending migration in one transaction, as on SQLite: all or nothing.
+  Work w(*conn_);
+  w.exec("BEGIN");
+  try {
+    // Concurrent opens take turns here; the one that waited finds the work done.
+    w.exec_params("SELECT pg_advisory_xact_lock($1)", kMigrationLock);
+    s = read_state(w);
+    check(s);
+    for (const PgMigration& m : kPgMigrations) {
+      if (s.version >= m.number) continue;
+      try {
+        w.exec(m.sql);
+      } catch (const pqxx::sql_error& e) {
+        throw Error(name_ + ": schema migration pg/" + m.name + " failed: " + trimmed(e.what()));
       }
-      w.exec("COMMIT");
-    } catch (...) {
-      undo(w, false);
-      throw;
+      w.exec_params("INSERT INTO schema_migrations (number, name) VALUES ($1, $2)", m.number, m.name);
+      s.version = m.number;
     }
+    w.exec("COMMIT");
+  } catch (...) {
+    undo(w, false);
+    throw;
   }
 }
 

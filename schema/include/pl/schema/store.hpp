@@ -104,7 +104,7 @@ class Store {
   // database. Throws pl::Error naming the file (the URL without its password) and the problem (not
   // a database, newer schema than this build knows, read-only, damaged, unreachable, ...). Without
   // `create` a missing or empty file, or a database without the store's tables, is an error.
-  // Migrations run in one transaction each.
+  // The pending migrations run in one transaction: all or none.
   static Store open(const std::string& db, bool create = true);
   // The newest schema version (SQLite: PRAGMA user_version; PostgreSQL: the schema_migrations
   // table) this build can migrate to; both engines have the same number of migrations.
