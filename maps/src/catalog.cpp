@@ -39,10 +39,12 @@ void publish_version(store::Store& s, const std::string& map, std::int64_t versi
   std::string detail;
   if (key) {
     const std::string text = signing::manifest_text(signing::manifest_of(s, map, version));
-    s.put_signature(map, version, key->public_key(), key->sign(text));  // (PostgreSQL: takes the map's lock)
-    if (signing::manifest_text(signing::manifest_of(s, map, version)) != text)
+    try {
+      signing::sign_staged_version(s, map, version, key->public_key(), key->sign(text));
+    } catch (const signing::SignatureMismatch&) {
       throw Error(s.path() + ": map " + map + " version " + std::to_string(version) +
                   " changed while it was being signed (another writer at work): nothing published; publish it again");
+    }
     detail = "signed by key " + signing::key_id(key->public_key());
   }
   s.publish(map, version);

@@ -129,7 +129,7 @@ PushReport push_version(const PushOptions& o) {
     mine.parent = opened["parent"].is_number_integer() ? std::optional<std::int64_t>(opened["parent"].get<std::int64_t>()) : std::nullopt;
     const std::string text = signing::manifest_text(mine);
     const auto theirs = http.get(vbase + "/manifest", auth);
-    if (theirs.status != 200) expect(theirs, {200}, "reading the manifest of version " + std::to_string(r.remote_version) + " to sign it");
+    expect(theirs, {200}, "reading the manifest of version " + std::to_string(r.remote_version) + " to sign it");
     if (theirs.body != text) {
       std::size_t line = 1;
       for (std::size_t i = 0; i < std::min(text.size(), theirs.body.size()) && text[i] == theirs.body[i]; ++i) line += text[i] == '\n';

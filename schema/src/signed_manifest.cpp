@@ -292,10 +292,7 @@ SigningKey SigningKey::generate() {
   EVP_PKEY* k = nullptr;
   if (!ctx || EVP_PKEY_keygen_init(ctx.get()) != 1 || EVP_PKEY_keygen(ctx.get(), &k) != 1)
     throw Error("cannot make an Ed25519 key: " + openssl_error());
-  SigningKey out;
-  out.key_ = k;
-  out.public_key_ = raw_public_key(k);
-  return out;
+  return SigningKey(k);
 }
 
 SigningKey SigningKey::from_seed(std::string_view seed) {
@@ -303,10 +300,7 @@ SigningKey SigningKey::from_seed(std::string_view seed) {
   EVP_PKEY* k =
       EVP_PKEY_new_raw_private_key(EVP_PKEY_ED25519, nullptr, reinterpret_cast<const unsigned char*>(seed.data()), seed.size());
   if (!k) throw Error("cannot make an Ed25519 key: " + openssl_error());
-  SigningKey out;
-  out.key_ = k;
-  out.public_key_ = raw_public_key(k);
-  return out;
+  return SigningKey(k);
 }
 
 SigningKey SigningKey::load(const std::string& pem_file) {
@@ -317,12 +311,18 @@ SigningKey SigningKey::load(const std::string& pem_file) {
     ERR_clear_error();
     throw Error(pem_file + ": not a PEM private key (make one with pl-map key-gen, or openssl genpkey -algorithm ed25519)");
   }
-  SigningKey out;
-  out.key_ = k;
-  if (EVP_PKEY_get_id(k) != EVP_PKEY_ED25519)
+  if (EVP_PKEY_get_id(k) != EVP_PKEY_ED25519) {
+    EVP_PKEY_free(k);
     throw Error(pem_file + ": a private key, but not an Ed25519 one (maps are signed with Ed25519: pl-map key-gen makes one)");
-  out.public_key_ = raw_public_key(k);
-  return out;
+  }
+  return SigningKey(k);
+}
+
+// Delegating: the object is whole once SigningKey() returns, so should the body throw, the
+// destructor frees the key.
+SigningKey::SigningKey(void* evp_pkey) : SigningKey() {
+  key_ = evp_pkey;
+  public_key_ = raw_public_key(static_cast<EVP_PKEY*>(evp_pkey));
 }
 
 SigningKey::SigningKey(SigningKey&& o) noexcept : key_(std::exchange(o.key_, nullptr)), public_key_(std::move(o.public_key_)) {}
@@ -370,8 +370,10 @@ std::vector<std::string> load_public_keys(const std::string& pem_file) {
   }
   ERR_clear_error();
   // Past the last key only blank space may follow (a damaged block is not skipped silently).
+  static constexpr std::string_view kEnd = "-----END PUBLIC KEY-----";
+  const std::size_t end = pem.rfind(kEnd);
   std::size_t rest = 0;
-  for (char c : pem.substr(pem.rfind("-----END PUBLIC KEY-----") == std::string::npos ? 0 : pem.rfind("-----END PUBLIC KEY-----") + 24))
+  for (char c : std::string_view(pem).substr(end == std::string::npos ? 0 : end + kEnd.size()))
     rest += !std::isspace(static_cast<unsigned char>(c));
   if (out.empty() || rest > 0)
     throw Error(pem_file + (out.empty() ? ": no PEM public key in it" : ": something other than a PEM public key after key " + std::to_string(out.size())) +
@@ -390,6 +392,14 @@ std::string public_key_pem(std::string_view public_key) {
 
 void save_public_key(std::string_view public_key, const std::string& pem_file) {
   write_new_file(pem_file, public_key_pem(public_key), 0644);
+}
+
+void sign_staged_version(store::Store& s, const std::string& map, std::int64_t version, std::string_view public_key,
+                         std::string_view signature) {
+  s.put_signature(map, version, public_key, signature);
+  if (!verify(public_key, manifest_text(manifest_of(s, map, version)), signature))
+    throw SignatureMismatch(s.path() + ": the signature of map " + map + " version " + std::to_string(version) +
+                            " does not verify against its manifest as the store holds it");
 }
 
 bool verify(std::string_view public_key, std::string_view message, std::string_view signature) {

@@ -277,7 +277,7 @@ struct Api::Impl {
     json maps = json::array();
     for (const auto& m : db().list_maps())
       maps.push_back({{"name", m.name}, {"current_version", m.current ? json(*m.current) : json(nullptr)}});
-    return json_response(200, {{"maps", maps}}, "/v1/maps");
+    return revalidated(json_response(200, {{"maps", maps}}, "/v1/maps"));
   }
 
   ApiResponse create_map(const ApiRequest& req) {
@@ -332,7 +332,7 @@ struct Api::Impl {
       j["points"] = 0;
       j["bytes"] = 0;
     }
-    return json_response(200, j, "/v1/maps/{map}");
+    return revalidated(json_response(200, j, "/v1/maps/{map}"));
   }
 
   ApiResponse roi(const ApiRequest& req, const std::string& name, const Target& t) {
@@ -399,6 +399,12 @@ struct Api::Impl {
     res.status = 200;
     res.body = roi_body(name, version, m.tile_size, send, drop);
     res.route = "/v1/maps/{map}/roi";
+    res.revalidate = true;
+    // The answer to one URL is fixed by the version it is of (a published or retired version's
+    // tiles never change) and by the map itself (a store rebuilt under the same name has another
+    // creation time): the tag says those, without hashing the body on every request. A staged
+    // version's answer changes with its tiles: its tag is the body's hash.
+    if (!staged_version) res.etag = answer_tag(m, version, req.target);
     return res;
   }
 
@@ -463,8 +469,8 @@ struct Api::Impl {
     json tiles = json::array();
     for (const auto& t : db().list_tiles(name, info.number))
       tiles.push_back({{"tx", t.key.tx}, {"ty", t.key.ty}, {"hash", t.hash}, {"points", t.points}, {"bytes", t.bytes}});
-    return json_response(200, {{"version", info.number}, {"state", store::state_name(info.state)}, {"tiles", tiles}},
-                         "/v1/maps/{map}/versions/{v}/tiles");
+    return revalidated(json_response(200, {{"version", info.number}, {"state", store::state_name(info.state)}, {"tiles", tiles}},
+                                     "/v1/maps/{map}/versions/{v}/tiles"));
   }
 
   // The places of a version. A published or retired version's places never change: cached like
@@ -518,24 +524,22 @@ struct Api::Impl {
     auto m = need_map(name);
     auto info = need_version(m, parse_version(vs), staged);
     const bool fixed = info.state != store::VersionState::Staged;
-    const std::string key = "manifest/" + name + "/" + std::to_string(info.number), hash_key = "manifest-hash/" + key;
-    std::shared_ptr<const std::string> body = fixed ? blobs.get(key) : nullptr, hash = fixed ? blobs.get(hash_key) : nullptr;
-    if (!body || !hash) {
+    const std::string key = "manifest/" + name + "/" + std::to_string(info.number);
+    std::shared_ptr<const std::string> body = fixed ? blobs.get(key) : nullptr;
+    if (!body) {
       std::string text = signing::manifest_text(signing::manifest_of(db(), name, info.number));
       if (auto sig = db().signature(name, info.number)) text += signing::signature_line(sig->public_key, sig->signature);
       body = std::make_shared<const std::string>(std::move(text));
-      hash = std::make_shared<const std::string>(store::content_hash(*body));
-      if (fixed) {
-        blobs.put(key, body);
-        blobs.put(hash_key, hash);
-      }
+      if (fixed) blobs.put(key, body);
     }
-    ApiResponse r = by_hash(req, *hash, route, fixed ? kImmutable : "private, no-cache");
+    // Hashed on every request: a vehicle asks once per version, and caches in front keep it for good.
+    const std::string hash = store::content_hash(*body);
+    ApiResponse r = by_hash(req, hash, route, fixed ? kImmutable : "private, no-cache");
     if (r.status == 304) return r;
     r.content_type = "text/plain; charset=utf-8";
     if (fixed) {  // sent from a file of its own, like tiles
       r.blob = std::move(body);
-      r.blob_hash = *hash;
+      r.blob_hash = hash;
     } else {
       r.body = *body;
     }
@@ -658,14 +662,13 @@ struct Api::Impl {
       store::Store::Transaction tx(db());
       std::string detail;
       if (sig) {
-        // Written first: on PostgreSQL this takes the map's lock, so the manifest read next is the
-        // one published.
-        db().put_signature(name, info.number, sig->first, sig->second);
-        const std::string text = signing::manifest_text(signing::manifest_of(db(), name, info.number));
-        if (!signing::verify(sig->first, text, sig->second))
+        try {
+          signing::sign_staged_version(db(), name, info.number, sig->first, sig->second);
+        } catch (const signing::SignatureMismatch&) {
           fail(422, "the signature does not verify against version " + std::to_string(info.number) +
                         "'s manifest as the store holds it: sign the bytes GET /v1/maps/" + name + "/versions/" +
                         std::to_string(info.number) + "/manifest answers after the last upload");
+        }
         detail = "signed by key " + signing::key_id(sig->first);
       }
       published = db().publish_if_current(name, info.number, info.parent);
@@ -842,15 +845,13 @@ ApiResponse Api::handle(const ApiRequest& req) {
         r.headers.emplace_back("WWW-Authenticate", req.authorization.empty() ? "Bearer realm=\"pl-server\""
                                                                              : "Bearer realm=\"pl-server\", error=\"invalid_token\"");
     }
-    // The answers that change as maps are published (the map list, a map's manifest, ROI answers, a
-    // version's tile list): an HTTP cache in front (deploy/varnish, deploy/nginx) may keep one for a
-    // second, then revalidate it by its ETag (the body's SHA-256, weak: a proxy may re-encode it).
-    // An answer to a request with a token is that token's: private.
+    // The answers that change as maps are published (ApiResponse::revalidate): an HTTP cache in
+    // front (deploy/varnish, deploy/nginx) may keep one for a second, then revalidate it by its ETag
+    // (weak: a proxy may re-encode the body). An answer to a request with a token is that token's:
+    // private.
     const bool get = req.method == "GET" || req.method == "HEAD";
-    if (r.status == 200 && get && r.content_type == "application/json" && !r.blob &&
-        (r.route == "/v1/maps" || r.route == "/v1/maps/{map}" || r.route == "/v1/maps/{map}/roi" ||
-         r.route == "/v1/maps/{map}/versions/{v}/tiles")) {
-      const std::string tag = "\"" + store::content_hash(r.body).substr(0, 32) + "\"";
+    if (r.status == 200 && get && r.revalidate) {
+      const std::string tag = "\"" + (r.etag.empty() ? store::content_hash(r.body).substr(0, 32) : r.etag) + "\"";
       r.headers.emplace_back("ETag", "W/" + tag);
       r.headers.emplace_back("Cache-Control", req.authorization.empty() ? "public, max-age=1" : "private, no-cache");
       if (!req.if_none_match.empty() && (req.if_none_match == "*" || req.if_none_match.find(tag) != std::string::npos)) {

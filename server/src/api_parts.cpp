@@ -5,6 +5,7 @@
 
 #include <cctype>
 #include <climits>
+#include <cstdio>
 
 #include "pl/common/error.hpp"
 #include "pl/common/text.hpp"
@@ -22,6 +23,25 @@ ApiResponse json_response(int status, const json& j, const std::string& route) {
   r.body = j.dump(-1, ' ', false, json::error_handler_t::replace) + "\n";
   r.route = route;
   return r;
+}
+
+ApiResponse revalidated(ApiResponse r) {
+  r.revalidate = true;
+  return r;
+}
+
+// Deterministic across processes and builds (std::hash is not): every replica behind one cache
+// must give one answer the same tag.
+std::string answer_tag(const store::MapInfo& map, std::int64_t version, std::string_view target) {
+  const std::string text = std::to_string(map.id) + '\n' + map.created + '\n' + std::to_string(version) + '\n' + std::string(target);
+  std::uint64_t a = 0xcbf29ce484222325ull, b = 0x84222325cbf29ce4ull;  // two FNV-1a 64 with different bases
+  for (unsigned char c : text) {
+    a = (a ^ c) * 0x100000001b3ull;
+    b = (b ^ c ^ 0x5a) * 0x100000001b3ull;
+  }
+  char out[33];
+  std::snprintf(out, sizeof out, "%016llx%016llx", static_cast<unsigned long long>(a), static_cast<unsigned long long>(b));
+  return out;
 }
 
 

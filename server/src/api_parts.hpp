@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "pl/common/tile_key.hpp"
+#include "pl/schema/store.hpp"
 #include "pl/server/api.hpp"
 
 namespace pl::server::api_parts {
@@ -29,6 +30,13 @@ struct HttpError {
 // Throws HttpError; the message echoes what the client sent, so it is made valid UTF-8 first.
 [[noreturn]] void fail(int status, const std::string& message);
 ApiResponse json_response(int status, const json& j, const std::string& route);
+// The answer marked ApiResponse::revalidate (its ETag: the body's hash).
+ApiResponse revalidated(ApiResponse r);
+// The ETag of an answer to `target` fixed by a published or retired version of a map: 32 hex digits
+// of a 128-bit FNV-1a over the map's id and creation time, the version and the target. Not a
+// cryptographic hash: two bodies of one URL need only differ in their tags, never resist an attacker
+// (an ETag is the server's own word, and the cache's key is the URL).
+std::string answer_tag(const store::MapInfo& map, std::int64_t version, std::string_view target);
 
 // The methods of each resource, for 405 answers and OPTIONS.
 constexpr const char* kReadOnly = "GET, HEAD, OPTIONS";

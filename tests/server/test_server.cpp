@@ -135,6 +135,13 @@ TEST(Server, EtagAndNotModified) {
   ServerProcess with_tokens(g.db, g.token_args());
   HttpClient h2(with_tokens.url());
   EXPECT_EQ(h2.get("/v1/maps/town", {{"Authorization", "Bearer " + kReadToken}}).header("cache-control"), "private, no-cache");
+  // An ROI answer's tag names the version and the map, not the body's bytes: a store made afresh
+  // under the same names (g holds the same map, built again) answers the same URL with another tag,
+  // so a cache holding the first store's answer does not get a 304 from the second.
+  const std::string roi = "/v1/maps/town/roi?x=0&y=0&radius=30";
+  EXPECT_EQ(h2.get(roi).body, http.get(roi).body);
+  EXPECT_NE(h2.get(roi).header("etag"), http.get(roi).header("etag"));
+  EXPECT_EQ(h2.get(roi, {{"If-None-Match", http.get(roi).header("etag")}}).status, 200);
 }
 
 TEST(Server, RoiMatchesTheTilesThatTouchTheDisc) {
@@ -589,10 +596,29 @@ TEST(Server, RoiAnswersFollowPublishesByTheServerAndByAnotherWriter) {
   ServerProcess server(f.db, f.token_args());
   HttpClient http(server.url());
   const std::string roi = "/v1/maps/town/roi?x=10&y=10&radius=30";
-  ASSERT_EQ(body_json(http.get(roi))["version"], 1);  // the row is cached from here on
+  const auto at_1 = http.get(roi);
+  ASSERT_EQ(body_json(at_1)["version"], 1);  // the row is cached from here on
+  // Replicas of one store give one answer one tag (a cache in front revalidates with either).
+  {
+    ServerProcess replica(f.db, f.token_args());
+    EXPECT_EQ(HttpClient(replica.url()).get(roi).header("etag"), at_1.header("etag"));
+  }
   ASSERT_EQ(http.request("POST", "/v1/maps/town/versions", "", bearer(kUploadToken)).status, 201);
+  // A staged version's answer is tagged by its bytes: writing a tile changes its tag.
+  const std::string staged_roi = roi + "&version=2";
+  const auto staged = http.get(staged_roi, bearer(kUploadToken));
+  ASSERT_EQ(staged.status, 200);
+  ASSERT_EQ(body_json(staged)["tiles"].size(), body_json(at_1)["tiles"].size());
+  const json gone = body_json(staged)["tiles"][0];
+  ASSERT_EQ(http.request("DELETE", "/v1/maps/town/versions/2/tiles/" + std::to_string(gone["tx"].get<int>()) + "/" +
+                                       std::to_string(gone["ty"].get<int>()), "", bearer(kUploadToken)).status, 200);
+  EXPECT_NE(http.get(staged_roi, bearer(kUploadToken)).header("etag"), staged.header("etag"));
   ASSERT_EQ(http.request("POST", "/v1/maps/town/versions/2/publish", "", bearer(kUploadToken)).status, 200);
-  EXPECT_EQ(body_json(http.get(roi))["version"], 2);  // at once: the publish dropped the cached row
+  const auto at_2 = http.get(roi, {{"If-None-Match", at_1.header("etag")}});  // the same URL: a new answer, not a 304
+  EXPECT_EQ(at_2.status, 200);
+  EXPECT_NE(at_2.header("etag"), at_1.header("etag"));
+  EXPECT_EQ(body_json(at_2)["version"], 2);  // at once: the publish dropped the cached row
+  EXPECT_EQ(body_json(at_2)["tiles"].size() + 1, body_json(at_1)["tiles"].size());
   {
     auto store = pl::store::Store::open(f.db, false);
     auto v = store.create_version("town", std::nullopt, "from another process");

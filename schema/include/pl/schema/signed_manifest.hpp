@@ -102,6 +102,7 @@ class SigningKey {
 
  private:
   SigningKey() = default;
+  explicit SigningKey(void* evp_pkey);  // takes the key, freeing it should reading its public half fail
   void* key_ = nullptr;  // EVP_PKEY
   std::string public_key_;
 };
@@ -116,6 +117,18 @@ void save_public_key(std::string_view public_key, const std::string& pem_file);
 
 // Whether `signature` (64 bytes) is `public_key`'s (32 bytes) over `message`.
 bool verify(std::string_view public_key, std::string_view message, std::string_view signature);
+
+// Signs a staged version in the caller's Store::Transaction, just before it is published: stores
+// the signature (put_signature; on PostgreSQL that takes the map's lock, so no writer comes
+// between), then checks it against the version's manifest as the store now holds it. Throws
+// SignatureMismatch when it does not verify (the version was written to after the manifest was
+// read to be signed, or the bytes signed were not its manifest): roll the transaction back. Both
+// signing publishers use it: pl-map publish --signing-key, and pl-server taking a signed publish.
+struct SignatureMismatch : Error {
+  using Error::Error;
+};
+void sign_staged_version(store::Store& s, const std::string& map, std::int64_t version, std::string_view public_key,
+                         std::string_view signature);
 
 // The line a signed manifest ends with.
 std::string signature_line(std::string_view public_key, std::string_view signature);

@@ -63,6 +63,12 @@ struct ApiResponse {
   std::string content_type = "application/json";
   std::vector<std::pair<std::string, std::string>> headers;
   std::string route;  // the route template, for metrics ("/v1/maps/{map}/roi")
+  // Set by the handlers of answers that change as maps are published (the map list, a map's
+  // manifest, ROI answers, a version's tile list): an HTTP cache in front may keep one for a second,
+  // then revalidate it by its weak ETag. `etag` is that tag when the handler knows what determines
+  // the body (cheaper than hashing it); empty: the body's SHA-256.
+  bool revalidate = false;
+  std::string etag;
 };
 
 // Prometheus metrics: requests by route and status, latency histogram, bytes served, connections.
