@@ -18,6 +18,7 @@
 #include "pl/maps/import.hpp"
 #include "pl/maps/push.hpp"
 #include "pl/schema/store.hpp"
+#include "pl/schema/store_copy.hpp"
 
 namespace {
 
@@ -267,6 +268,44 @@ void add_token_commands(Tool& tool) {
   pl::cli::number(revoke, "--id", s->id, "the token's id (pl-map token-list)", pl::cli::at_least(1))->required()->default_str("");
 }
 
+// migrate: the exact copy of a whole store into an empty one, between SQLite and PostgreSQL either
+// way (pl/schema/store_copy.hpp). Never prints a URL's password (display_name).
+void add_migrate(Tool& tool) {
+  struct State {
+    std::string from, to;
+  };
+  auto s = std::make_shared<State>();
+  CLI::App& c = tool.command("migrate", "copy a whole store, exactly (ids, times, history, tokens, the upload log), into an "
+                             "empty one: SQLite to PostgreSQL, back, or within one engine; verified by a digest of both", [s] {
+    pl::StageProgress bars;
+    const auto r = pl::store::copy_store(s->from, s->to, [&](const std::string& stage, std::size_t done, std::size_t total) {
+      bars.update(stage, done, total);
+    });
+    bars.finish();
+    std::printf("copied %s to %s: %lld maps, %lld versions, %lld tiles, %lld blobs (%s), %lld places, %lld signatures, "
+                "%lld tokens, %lld upload log entries\n",
+                pl::store::display_name(s->from).c_str(), pl::store::display_name(s->to).c_str(), static_cast<long long>(r.maps),
+                static_cast<long long>(r.versions), static_cast<long long>(r.tiles), static_cast<long long>(r.blobs),
+                maps::megabytes(static_cast<double>(r.blob_bytes)).c_str(), static_cast<long long>(r.places),
+                static_cast<long long>(r.signatures), static_cast<long long>(r.tokens), static_cast<long long>(r.log_entries));
+    std::printf("content digest %s: the same on both\n", r.digest.c_str());
+    return 0;
+  });
+  auto exists = [](std::string& path) -> std::string {
+    if (pl::store::is_postgres_url(path) || pl::file_exists(path)) return "";
+    return path + ": no such map store";
+  };
+  auto creatable = [](std::string& path) -> std::string {
+    if (pl::store::is_postgres_url(path) || pl::file_exists(path)) return "";
+    return pl::output_file_problem(path);
+  };
+  c.add_option("--from", s->from, "the store to copy: a SQLite file or a postgresql://USER@HOST/DB URL")
+      ->required()->type_name("FILE|URL")->check(CLI::Validator(exists, ""));
+  c.add_option("--to", s->to, "the empty store to copy into: a SQLite file (created when missing) or the URL of an existing, "
+               "empty PostgreSQL database")
+      ->required()->type_name("FILE|URL")->check(CLI::Validator(creatable, ""));
+}
+
 int main(int argc, char** argv) {
   Tool tool("pl-map", "Build maps from drives, cut them into Draco tiles in a versioned SQLite map store, publish them.");
   add_build(tool);
@@ -275,5 +314,6 @@ int main(int argc, char** argv) {
   add_token_commands(tool);
   add_push(tool);
   add_key_gen(tool);
+  add_migrate(tool);
   return tool.main(argc, argv);
 }

@@ -21,6 +21,92 @@ namespace pl::store::detail {
 // The largest tile either engine stores: the SQLite connection's value limit, so that a store moves
 // between the engines (PostgreSQL's own limit for a bytea is 1 GB).
 inline constexpr std::size_t kMaxTileBytes = std::size_t{256} << 20;
+// How many bytes of blobs an export reads from PostgreSQL at once (more when one blob is larger).
+inline constexpr std::size_t kCopyBatchBytes = std::size_t{32} << 20;
+
+// ---- rows of a whole store, as the exact copy (pl/schema/store_copy.hpp) moves them ----------------
+// Every column of every table, ids and timestamps included, in the form both engines read and
+// write: integers, doubles, text, bytes, and timestamps as store.hpp writes them (UTC ISO 8601 to
+// the millisecond: SQLite keeps no more, PostgreSQL's microseconds are not copied).
+
+struct MapRow {
+  std::int64_t id = 0;
+  std::string name;
+  double origin_lat = 0, origin_lon = 0, origin_alt = 0, tile_size = 0, voxel_size = 0;
+  std::optional<std::int64_t> current_version;
+  std::string created;
+};
+
+struct VersionRow {
+  std::int64_t id = 0, map_id = 0, number = 0;
+  std::optional<std::int64_t> parent;
+  VersionState state = VersionState::Staged;
+  std::string created, note;
+  std::optional<std::string> published;  // when first published
+  std::optional<std::int64_t> replaces;  // the version current when it was published (rollback's step)
+};
+
+struct BlobRow {
+  std::string hash, bytes;  // bytes checked against the hash by the reader
+};
+
+struct TileRow {
+  std::int64_t id = 0, map_id = 0, version = 0, tx = 0, ty = 0;
+  std::string hash;
+  std::int64_t points = 0, bytes = 0;
+  double min_x = 0, min_y = 0, min_z = 0, max_x = 0, max_y = 0, max_z = 0;
+};
+
+struct PlacesRow {
+  std::int64_t id = 0, map_id = 0, version = 0;
+  std::string hash, bytes;  // bytes checked against the hash by the reader
+};
+
+struct SignatureRow {
+  std::int64_t id = 0, map_id = 0, version = 0;
+  std::string public_key, signature, signed_at;
+};
+
+struct TokenRow {
+  std::int64_t id = 0;
+  std::string hash;  // SHA-256 of the token, as stored
+  Role role = Role::Read;
+  std::string note, created;
+  std::optional<std::string> revoked;
+};
+
+struct LogRow {
+  std::int64_t id = 0;
+  std::string at, map;
+  std::optional<std::int64_t> version;
+  std::string action, detail, who;
+};
+
+// Where a store's rows go, table by table in this order (each announced by begin_table with its
+// number of rows), each table in key order: its id, blobs by hash. Blobs and places come one at a
+// time, so that a store larger than memory passes through.
+class RowSink {
+ public:
+  enum class Table { Maps, Versions, Blobs, Tiles, Places, Signatures, Tokens, UploadLog };
+  virtual ~RowSink() = default;
+  virtual void begin_table(Table, std::int64_t /*rows*/) {}
+  virtual void map(const MapRow&) = 0;
+  virtual void version(const VersionRow&) = 0;
+  virtual void blob(const BlobRow&) = 0;
+  virtual void tile(const TileRow&) = 0;
+  virtual void places(const PlacesRow&) = 0;
+  virtual void signature(const SignatureRow&) = 0;
+  virtual void token(const TokenRow&) = 0;
+  virtual void log(const LogRow&) = 0;
+  // After the last row: what the writer left for the end (an importer: states, current versions).
+  virtual void finish() {}
+};
+
+// What an importer refuses to write into: a store holding any map, blob, token or log entry.
+struct StoreContent {
+  std::int64_t maps = 0, blobs = 0, tokens = 0, log_entries = 0;
+  bool empty() const { return maps == 0 && blobs == 0 && tokens == 0 && log_entries == 0; }
+};
 
 // The engines get arguments Store has checked already (names, origins, sizes, bounds, empty
 // values: store_facade.cpp); what they check themselves is what only they know (the text
@@ -88,6 +174,22 @@ class StoreBackend {
 
   virtual std::int64_t database_bytes() const = 0;
   virtual bool integrity_ok() const = 0;
+
+  // ---- the exact copy of a whole store (store_copy.cpp) ----
+  // Hands every row to `out` (RowSink says in which order), read from one snapshot: a read
+  // transaction of its own, or the transaction this connection has open (an importer's, to verify
+  // what it wrote before committing). Every value is checked as the other reads check it; a blob or
+  // places whose bytes do not hash to their hash is the damaged error. Blob and places bytes are
+  // read a few at a time (PostgreSQL: batches of at most kCopyBatchBytes), never all at once.
+  virtual void export_rows(RowSink& out) const = 0;
+  // What the store holds of what makes it non-empty (StoreContent).
+  virtual StoreContent content() const = 0;
+  // Inside an open transaction (begin_transaction): the writer of rows exported from another store,
+  // verbatim (ids, timestamps, states, publish history), into this one, which the caller then
+  // finds empty (content(); on PostgreSQL the importer has locked the tables against other writers
+  // by then). The rows must come in RowSink's order and end with finish(); nothing is committed by
+  // it. The engines' importers say how the schema's triggers accept the rows as they stand.
+  virtual std::unique_ptr<RowSink> importer() = 0;
 };
 
 std::unique_ptr<StoreBackend> open_sqlite(const std::string& path, bool create);

@@ -82,6 +82,10 @@ class SqliteStore final : public StoreBackend {
   void rollback_transaction_quietly(bool nested) noexcept override;
   std::int64_t database_bytes() const override;
   bool integrity_ok() const override;
+  // The exact copy (store_copy_sqlite.cpp / store_pg_copy.cpp).
+  void export_rows(RowSink& out) const override;
+  StoreContent content() const override;
+  std::unique_ptr<RowSink> importer() override;
 
  private:
   friend std::unique_ptr<StoreBackend> open_sqlite(const std::string& path, bool create);

@@ -94,10 +94,18 @@ class PgStore final : public StoreBackend {
 
   std::int64_t database_bytes() const override;
   bool integrity_ok() const override;
+  // The exact copy (store_copy_sqlite.cpp / store_pg_copy.cpp).
+  void export_rows(RowSink& out) const override;
+  StoreContent content() const override;
+  std::unique_ptr<RowSink> importer() override;
 
   // ---- for the implementation files ----
 
   using Work = pqxx::nontransaction;
+  // The connection, and whether a Store::Transaction is open on it (the exact copy's reader and
+  // writer, store_pg_copy.cpp, send their own statements).
+  pqxx::connection& connection() const { return *conn_; }
+  bool in_transaction() const { return depth_ > 0; }
 
   // Runs f(Work&) all-or-nothing: one transaction outside a Store::Transaction, a savepoint inside
   // one. Every failure leaves as a pl::Error naming the database.
