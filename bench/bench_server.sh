@@ -13,13 +13,7 @@ for tool in nginx wrk curl; do
 done
 
 # A map: one lap of the town loop, 64 beams, merged at the ground-truth poses, 0.2 m voxels.
-if [[ ! -f "$work/maps.sqlite" ]]; then
-  "$bin/pl-sim" --route loop --out "$work/loop" --force >/dev/null
-  "$bin/pl-map" build --dataset "$work/loop" --poses gt --out "$work/loop.pcd" >/dev/null
-  "$bin/pl-map" tile --cloud "$work/loop.pcd" --db "$work/maps.sqlite.partial" --map town >/dev/null
-  "$bin/pl-map" publish --db "$work/maps.sqlite.partial" --map town --version 1 >/dev/null
-  mv "$work/maps.sqlite.partial" "$work/maps.sqlite"
-fi
+bash "$(dirname "${BASH_SOURCE[0]}")/town_map.sh" "$bin" "$work"
 # The same store also holds a map of small tiles (about 4 KB each: a few hundred points of sparse
 # ground a tile), for the per-request cost that small answers expose.
 if ! "$bin/pl-map" list --db "$work/maps.sqlite" 2>/dev/null | grep -q "^tiles4k"; then

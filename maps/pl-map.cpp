@@ -306,6 +306,27 @@ void add_migrate(Tool& tool) {
       ->required()->type_name("FILE|URL")->check(CLI::Validator(creatable, ""));
 }
 
+// check: the whole store checked (integrity_ok: the engine's own check, every rule the schema
+// states, every blob against its hash) and its content digest, the one migrate prints: after an
+// outage or a copy, whether anything was lost or damaged. Exit 1 when it is damaged.
+void add_check(Tool& tool) {
+  auto db = std::make_shared<std::string>();
+  CLI::App& c = tool.command("check", "check a whole store (every rule of the schema, every blob against its hash) and print "
+                             "its content digest (the one pl-map migrate prints)", [db] {
+    auto store = pl::store::Store::open(*db, false);
+    const auto maps = store.list_maps();
+    std::size_t versions = 0;
+    for (const auto& m : maps) versions += store.list_versions(m.name).size();
+    const bool ok = store.integrity_ok();
+    std::printf("%s: %zu maps, %zu versions, %s\n", store.path().c_str(), maps.size(), versions,
+                ok ? "sound" : "DAMAGED: restore it from a backup, or rebuild it with pl-map");
+    if (!ok) return 1;
+    std::printf("content digest %s\n", pl::store::store_digest(*db).c_str());
+    return 0;
+  });
+  db_option(c, *db, false);
+}
+
 int main(int argc, char** argv) {
   Tool tool("pl-map", "Build maps from drives, cut them into Draco tiles in a versioned SQLite map store, publish them.");
   add_build(tool);
@@ -315,5 +336,6 @@ int main(int argc, char** argv) {
   add_push(tool);
   add_key_gen(tool);
   add_migrate(tool);
+  add_check(tool);
   return tool.main(argc, argv);
 }

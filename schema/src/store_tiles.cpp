@@ -290,6 +290,15 @@ bool SqliteStore::integrity_ok() const {
               "AND r.min_x <= t.min_x AND r.max_x >= t.max_x AND r.min_y <= t.min_y AND r.max_y >= t.max_y))");
       if (!st.step() || st.int64(0) != 1) return false;
     }
+    {
+      // Every blob and every version's places hash to their hash, as on PostgreSQL: SQLite keeps no
+      // checksums of its own, so bytes that changed on disk show only here.
+      Stmt st(db, "SELECT hash, bytes FROM blobs UNION ALL SELECT hash, bytes FROM places");
+      while (st.step()) {
+        Row row(st, "blobs");
+        if (content_hash(row.blob(1, "bytes")) != st.text(0)) return false;
+      }
+    }
   } catch (const Error&) {
     int code = sqlite3_errcode(db.get()) & 0xFF;
     if (code == SQLITE_CORRUPT || code == SQLITE_NOTADB) return false;

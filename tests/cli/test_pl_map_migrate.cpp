@@ -75,3 +75,22 @@ TEST(PlMapMigrate, CopiesToPostgresAndBackPrintingTheDigestAndNoPassword) {
   EXPECT_NE(missing.output.find("none.db: no such map store"), std::string::npos) << missing.output;
   EXPECT_FALSE(pl::file_exists(dir / "new.db"));
 }
+
+// pl-map check: a sound store prints its content digest (the one migrate prints) and exits 0; a
+// store whose blob bytes changed on disk is reported damaged with exit 1, naming the fix.
+TEST(PlMapCheck, SoundStorePrintsItsDigestDamagedOneFails) {
+  pl::test::TempDir dir;
+  const std::string db = dir / "maps.db";
+  fill(db);
+  const auto good = pl::test::run(pl::test::tool("pl-map") + " check --db " + db);
+  ASSERT_EQ(good.exit_code, 0) << good.output;
+  EXPECT_NE(good.output.find("1 maps, 2 versions, sound"), std::string::npos) << good.output;
+  EXPECT_NE(good.output.find("content digest " + pl::store::store_digest(db)), std::string::npos) << good.output;
+  // One blob's bytes changed behind the store's back (same length: only its hash tells).
+  ASSERT_EQ(pl::test::run("sqlite3 " + db + " \"UPDATE blobs SET bytes = CAST(replace(CAST(bytes AS TEXT), 'x', 'z') AS BLOB)"
+                          " WHERE length(bytes) = 3000\"").exit_code, 0);
+  const auto bad = pl::test::run(pl::test::tool("pl-map") + " check --db " + db);
+  EXPECT_EQ(bad.exit_code, 1) << bad.output;
+  EXPECT_NE(bad.output.find("DAMAGED: restore it from a backup"), std::string::npos) << bad.output;
+  EXPECT_EQ(bad.output.find("content digest"), std::string::npos) << bad.output;
+}
