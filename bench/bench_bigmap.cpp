@@ -4,10 +4,11 @@
 // bytes (and a content hash) of its own, as tiles of a real map of that size would: a store that
 // kept one blob for many tiles would be smaller and faster than any real one.
 //
-//   bench_bigmap --from STORE --map NAME --to STORE --name BIG [--km2 25] [--threads 2]
+//   bench_bigmap --from STORE --map NAME --to STORE --name BIG [--km2 25] [--threads 2] [--signing-key KEY]
 //
 // Writes map BIG (the source map's origin, tile and voxel size) as one version, published at the
-// end; tiles are written in one transaction per copy. Prints the copies, tiles, bytes and the time
+// end (signed with the key, as pl-map publish --signing-key signs); tiles are written in one
+// transaction per copy. Prints the copies, tiles, bytes and the time
 // it took; a progress bar on a terminal.
 #include <algorithm>
 #include <atomic>
@@ -25,12 +26,13 @@
 #include "pl/common/error.hpp"
 #include "pl/common/progress.hpp"
 #include "pl/common/tile_codec.hpp"
+#include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 
 namespace {
 
 struct Options {
-  std::string from, map, to, name;
+  std::string from, map, to, name, signing_key;
   double km2 = 25;
   int threads = 2;
 };
@@ -125,7 +127,16 @@ int run(const Options& o) {
   }
   for (auto& t : pool) t.join();
   bar.finish();
-  dst.publish(o.name, version.number);
+  {
+    pl::store::Store::Transaction tx(dst);
+    if (!o.signing_key.empty()) {
+      const auto key = pl::signing::SigningKey::load(o.signing_key);
+      const std::string text = pl::signing::manifest_text(pl::signing::manifest_of(dst, o.name, version.number));
+      pl::signing::sign_staged_version(dst, o.name, version.number, key.public_key(), key.sign(text));
+    }
+    dst.publish(o.name, version.number);
+    tx.commit();
+  }
   const double s = (pl::bench::now_ms() - t0) / 1000;
   std::printf("map %s version %lld in %s: %zu tiles, %.1f MB of tiles, %.2f km2, in %.1f s (%.1f s of it writing the store)\n",
               o.name.c_str(), static_cast<long long>(version.number), dst.path().c_str(), total, bytes / 1e6, copies * block_km2, s,
@@ -146,6 +157,8 @@ int main(int argc, char** argv) {
   app.add_option("--name", o.name, "the large map's name")->required();
   app.add_option("--km2", o.km2, "the area the copies cover at least, km2")->check(CLI::Range(0.001, 10000.0));
   app.add_option("--threads", o.threads, "encoding threads")->check(CLI::Range(1, 64));
+  app.add_option("--signing-key", o.signing_key, "sign the version with this Ed25519 key (pl-map key-gen) when publishing it")
+      ->check(CLI::ExistingFile);
   tool.body([&] { return run(o); });
   return tool.main(argc, argv);
 }

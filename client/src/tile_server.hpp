@@ -50,6 +50,9 @@ class TileServer {
   // GET /v1/maps/{map}/versions/{v}/manifest: the version's signed manifest, verified against
   // `trusted` (wire::verified_manifest), and the body as it came (for the disk cache). One that
   // does not verify is counted as rejected and failed.
+  // After a refusal the next tries ask by other URLs (".../manifest?refused=N", N = 1, 2, ...):
+  // other entries of any HTTP cache on the way, so that one poisoned entry does not keep the
+  // vehicle off the map, while the vehicles that all met it share each next entry.
   std::pair<signing::SignedManifest, std::string> signed_manifest(long long version, const std::vector<std::string>& trusted);
   // GET /v1/maps/{map}/roi: the tiles the server lists for the query's disc in `version`.
   std::vector<CachedTile> roi(const RoiQuery& q, long long version, double tile_size);
@@ -81,6 +84,7 @@ class TileServer {
   Backoff backoff_;
   int last_status_ = 0;
   bool last_rejected_ = false;
+  int manifest_refusals_ = 0;  // signed manifests refused so far
 };
 
 // GET /v1/maps/{map}/versions/{v}/places for TileClient::places: on the caller's thread, over a

@@ -260,6 +260,42 @@ TEST(TileClient, AlteredManifestIsRefusedAndTheVersionNotUsedUntilAGoodOneComes)
   EXPECT_NE(fresh.status().last_error.find("no signature"), std::string::npos) << fresh.status().last_error;
 }
 
+// A cache holding one poisoned copy of the manifest (its entry for the plain URL): the client
+// refuses it, then asks by another URL, another cache entry, and takes the version without anyone
+// purging the cache.
+TEST(TileClient, PoisonedManifestEntryIsRefusedAndTheVersionTakenByAnotherUrl) {
+  SignedFixture f;
+  ServerProcess server(f.db);
+  TamperingProxy proxy(server.url());
+  const std::string real = f.hashes(1).begin()->second, fake = pl::store::content_hash("evil tile");
+  std::mutex mu;
+  std::vector<std::string> asked;
+  proxy.set_alter([&](const std::string& target, std::string& body) {
+    if (target.find("/manifest") == std::string::npos) return;
+    {
+      std::lock_guard<std::mutex> lock(mu);
+      asked.push_back(target);
+    }
+    if (target != "/v1/maps/town/versions/1/manifest") return;
+    const auto at = body.find(real);
+    if (at != std::string::npos) body.replace(at, real.size(), fake);
+  });
+  auto cfg = f.config(proxy.url());
+  TileClient client(cfg);
+  ASSERT_TRUE(client.wait_ready(30)) << client.status().last_error;
+  EXPECT_EQ(client.status().rejected, 1u);
+  EXPECT_EQ(client.status().version, 1);
+  {
+    std::lock_guard<std::mutex> lock(mu);
+    ASSERT_EQ(asked.size(), 2u);
+    EXPECT_EQ(asked[0], "/v1/maps/town/versions/1/manifest");
+    EXPECT_EQ(asked[1], "/v1/maps/town/versions/1/manifest?refused=1");
+  }
+  client.set_focus({0, 0}, {0, 0});
+  ASSERT_TRUE(client.wait_for({0, 0}, 25, 30)) << client.status().last_error;
+  EXPECT_EQ(held(client, {0, 0}, 25), within(f.hashes(1), {0, 0}, 25));
+}
+
 TEST(TileClient, AlteredTileIsRefusedAndTheOthersComeMeanwhile) {
   SignedFixture f;
   ServerProcess server(f.db);
