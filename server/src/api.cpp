@@ -316,23 +316,29 @@ struct Api::Impl {
               {"tile_size", m.tile_size},
               {"voxel_size", m.voxel_size}};
     if (m.current) {
-      auto v = db().find_version(name, *m.current);
-      auto tiles = db().list_tiles(name, *m.current);
-      double lx = INFINITY, ly = INFINITY, lz = INFINITY, hx = -INFINITY, hy = -INFINITY, hz = -INFINITY;
-      for (const auto& t : tiles) {
-        lx = std::min(lx, t.min_x), ly = std::min(ly, t.min_y), lz = std::min(lz, t.min_z);
-        hx = std::max(hx, t.max_x), hy = std::max(hy, t.max_y), hz = std::max(hz, t.max_z);
-      }
-      j["tile_count"] = tiles.size();
-      j["points"] = v ? v->points : 0;
-      j["bytes"] = v ? v->bytes : 0;
-      if (!tiles.empty()) j["bounds"] = {{"min", {lx, ly, lz}}, {"max", {hx, hy, hz}}};
+      const auto index = published_index(m, *m.current);
+      const auto& t = index->totals();
+      j["tile_count"] = index->size();
+      j["points"] = t.points;
+      j["bytes"] = t.bytes;
+      if (index->size() > 0) j["bounds"] = {{"min", {t.min[0], t.min[1], t.min[2]}}, {"max", {t.max[0], t.max[1], t.max[2]}}};
     } else {
       j["tile_count"] = 0;
       j["points"] = 0;
       j["bytes"] = 0;
     }
     return revalidated(json_response(200, j, "/v1/maps/{map}"));
+  }
+
+  // The in-memory index of a published or retired version (which never changes), built from the
+  // store's rows on first use and kept (VersionIndexCache).
+  std::shared_ptr<const VersionIndex> published_index(const store::MapInfo& m, std::int64_t version) {
+    auto index = version_indexes.find(m.name, version);
+    if (!index) {
+      index = std::make_shared<const VersionIndex>(m.tile_size, db().list_tiles(m.name, version));
+      version_indexes.put(m.name, version, index);
+    }
+    return index;
   }
 
   ApiResponse roi(const ApiRequest& req, const std::string& name, const Target& t) {
@@ -353,9 +359,13 @@ struct Api::Impl {
     std::int64_t version = 0;
     bool staged_version = false;
     if (t.query.count("version")) {
-      const store::VersionInfo info = need_version(m, parse_version(t.query.at("version")), staged);
-      version = info.number;
-      staged_version = info.state == store::VersionState::Staged;
+      version = parse_version(t.query.at("version"));
+      // A version indexed here is published or retired, and stays so: no trip to the store (whose
+      // version row sums the version's tiles) on the vehicles' every query.
+      if (!version_indexes.find(name, version)) {
+        const store::VersionInfo info = need_version(m, version, staged);
+        staged_version = info.state == store::VersionState::Staged;
+      }
     } else {
       if (!m.current) fail(404, "map " + name + " has no published version");
       version = *m.current;
@@ -373,11 +383,7 @@ struct Api::Impl {
     // test against each tile's square.
     std::shared_ptr<const VersionIndex> index;
     if (!staged_version) {
-      index = version_indexes.find(name, version);
-      if (!index) {
-        index = std::make_shared<const VersionIndex>(m.tile_size, db().list_tiles(name, version));
-        version_indexes.put(name, version, index);
-      }
+      index = published_index(m, version);
     } else {
       index = std::make_shared<const VersionIndex>(
           m.tile_size, db().tiles_in_box(name, version, x - r - m.tile_size, y - r - m.tile_size, x + r + m.tile_size, y + r + m.tile_size));

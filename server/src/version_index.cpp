@@ -16,6 +16,16 @@ namespace pl::server {
 VersionIndex::VersionIndex(double tile_size, const std::vector<store::TileRecord>& tiles) : tile_size_(tile_size) {
   tiles_.reserve(tiles.size());
   for (const auto& t : tiles) tiles_.push_back({t.key, t.hash, t.points, t.bytes});
+  for (std::size_t i = 0; i < tiles.size(); ++i) {
+    const auto& t = tiles[i];
+    totals_.points += t.points;
+    totals_.bytes += t.bytes;
+    const double lo[3] = {t.min_x, t.min_y, t.min_z}, hi[3] = {t.max_x, t.max_y, t.max_z};
+    for (int a = 0; a < 3; ++a) {
+      totals_.min[a] = i == 0 ? lo[a] : std::min(totals_.min[a], lo[a]);
+      totals_.max[a] = i == 0 ? hi[a] : std::max(totals_.max[a], hi[a]);
+    }
+  }
   std::sort(tiles_.begin(), tiles_.end(), [](const Tile& a, const Tile& b) { return a.key < b.key; });
   by_key_.reserve(tiles_.size());
   for (std::size_t i = 0; i < tiles_.size(); ++i) by_key_.emplace(pack(tiles_[i].key), static_cast<std::uint32_t>(i));

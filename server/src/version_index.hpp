@@ -30,6 +30,14 @@ class VersionIndex {
   double tile_size() const { return tile_size_; }
   std::size_t size() const { return tiles_.size(); }
 
+  // What a map's manifest says of the version, summed once here rather than over the store's rows
+  // on every request (a map of 50,000 tiles made each manifest a scan of them all).
+  struct Totals {
+    std::int64_t points = 0, bytes = 0;
+    double min[3] = {0, 0, 0}, max[3] = {0, 0, 0};  // the tiles' points' box; zeros without tiles
+  };
+  const Totals& totals() const { return totals_; }
+
   // The tiles whose square has a point within `radius` of (x, y), ordered by (tx, ty): the keys of
   // the disc looked up one by one, or, when the disc spans more keys than the version has tiles,
   // every tile tested. Nothing for a negative or NaN radius.
@@ -40,6 +48,7 @@ class VersionIndex {
     return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(k.tx)) << 32) | static_cast<std::uint32_t>(k.ty);
   }
   double tile_size_;
+  Totals totals_;
   std::vector<Tile> tiles_;  // ordered by (tx, ty)
   std::unordered_map<std::uint64_t, std::uint32_t> by_key_;
 };
