@@ -159,6 +159,12 @@ sub vcl_backend_response {
 }
 
 sub vcl_backend_error {
+  # A replica that could not be reached (killed, restarting, before its probe marks it sick): a
+  # read is asked once more, and the round-robin director sends it to the next replica. A write is
+  # not repeated (it may have reached the replica).
+  if (bereq.retries == 0 && (bereq.method == "GET" || bereq.method == "HEAD")) {
+    return (retry);
+  }
   # The origin could not be reached at all (refused, timed out, no replica ready): as for a 5xx.
   if (!bereq.uncacheable && (bereq.is_bgfetch || bereq.http.If-None-Match)) {
     return (abandon);

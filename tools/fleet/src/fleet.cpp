@@ -798,7 +798,7 @@ OriginCounts origin_delta(const std::string& url, const Counters& before, const 
       oc.tiles += d;
     else if (route == "/v1/maps/{map}/roi")
       oc.roi += d;
-    else if (route == "/v1/maps/{map}")
+    else if (route == "/v1/maps/{map}" || route == "/v1/maps/{map}/versions/{v}/manifest")
       oc.manifests += d;
     else
       oc.other += d;

@@ -83,7 +83,7 @@ class Metrics {
   static constexpr const char* kRoutes[] = {"/healthz", "/readyz", "/metrics", "/v1/maps", "/v1/maps/{map}", "/v1/maps/{map}/roi",
                                             "/v1/maps/{map}/versions", "/v1/maps/{map}/versions/{v}/tiles",
                                             "/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}", "/v1/maps/{map}/versions/{v}/publish",
-                                            "/v1/maps/{map}/versions/{v}/places",
+                                            "/v1/maps/{map}/versions/{v}/places", "/v1/maps/{map}/versions/{v}/manifest",
                                             "/v1/blobs/{hash}", "other"};
   static constexpr int kStatuses[] = {200, 201, 204, 304, 400, 401, 403, 404, 405, 409, 413, 422, 429, 431, 500, 503, 0};  // 0: any other
   static constexpr double kBuckets[] = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 1.0};

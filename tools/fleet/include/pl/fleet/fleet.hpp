@@ -108,7 +108,7 @@ struct OriginCounts {
   std::string error;         // why not ok
   double tiles = 0;          // /v1/blobs/{hash} + /v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}
   double roi = 0;            // /v1/maps/{map}/roi
-  double manifests = 0;      // /v1/maps/{map} (and the rest: signed manifests count under "other")
+  double manifests = 0;      // /v1/maps/{map} and /v1/maps/{map}/versions/{v}/manifest (signed manifests)
   double other = 0;          // every other route but /metrics, /healthz and /readyz
   double errors_5xx = 0;     // of all of them, answered 5xx
 };
