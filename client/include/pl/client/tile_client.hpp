@@ -21,9 +21,10 @@
 // - With fleet_keys (signed maps), a version is used only once its signed manifest verifies against
 //   one of the fleet's public keys; its tiles and their hashes are then all known from it (no ROI
 //   queries), so a tile is used only with the bytes its publisher signed. A manifest that does not
-//   verify is refused and the tiles in use stay; tile bytes that do not match are refused, asked for
-//   once more by another URL (GET .../versions/{v}/tiles/{tx}/{ty}: another HTTP cache entry), then
-//   left alone for 30 s while the other tiles come. Each refusal counts in status().rejected.
+//   verify is refused and the tiles in use stay, and the next try asks by another URL
+//   (.../manifest?refused=N: another HTTP cache entry, past a poisoned one); tile bytes that do
+//   not match are refused, asked for once more by another URL (GET .../versions/{v}/tiles/{tx}/{ty}:
+//   another HTTP cache entry), then left alone for 30 s while the other tiles come. Each refusal counts in status().rejected.
 #pragma once
 
 #include <Eigen/Core>

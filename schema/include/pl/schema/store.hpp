@@ -251,9 +251,10 @@ class Store {
 
   // SQLite: page_count * page_size; PostgreSQL: pg_database_size of the database.
   std::int64_t database_bytes() const;
-  // SQLite: PRAGMA integrity_check == "ok", no foreign key violations, and the R*Tree is sound and
-  // holds exactly one entry (containing the tile's xy box) per tile. PostgreSQL: every blob hashes
-  // to its hash and the rules the schema states hold. False for a corrupt store.
+  // SQLite: PRAGMA integrity_check == "ok", no foreign key violations, the R*Tree is sound and
+  // holds exactly one entry (containing the tile's xy box) per tile, and every blob and places
+  // hash to their hash. PostgreSQL: every blob and places hash to their hash and the rules the
+  // schema states hold. False for a corrupt store. Reads every blob: minutes for a large store.
   bool integrity_ok() const;
 
  private:
