@@ -62,3 +62,7 @@ bash "$(dirname "$0")/recordings_kitti05.sh" "$bin" "$root/build/bench"
 echo
 echo "== ros1_kitti05: the ROS 1 node on drive 0005's bag (rosbag play) against pl-localize on the same bag"
 bash "$(dirname "$0")/ros1_kitti05.sh" "$bin" "$root/build/bench"
+
+echo
+echo "== fleet: a 25.8 km2 map in PostgreSQL, two replicas, Varnish and nginx, 2,000 virtual vehicles (pl-fleet); a replica killed, PostgreSQL restarted, tampering in the cache"
+bash "$(dirname "$0")/fleet.sh" "$bin" "$root/build/bench/fleet"
