@@ -79,9 +79,7 @@ CachedManifest TileServer::manifest(std::optional<long long> pin) {
 
 std::pair<signing::SignedManifest, std::string> TileServer::signed_manifest(long long version, const std::vector<std::string>& trusted) {
   const std::string about = "the signed manifest of map " + cfg_.map + " version " + std::to_string(version);
-  std::string target = "/v1/maps/" + api::url_encode(cfg_.map) + "/versions/" + std::to_string(version) + "/manifest";
-  if (manifest_refusals_ > 0) target += "?refused=" + std::to_string(manifest_refusals_);
-  api::HttpResponse res = get(target, about, pinned_hint(version));
+  api::HttpResponse res = get(wire::signed_manifest_target(cfg_.map, version, manifest_refusals_), about, pinned_hint(version));
   try {
     auto verified = wire::verified_manifest(res.body, trusted, cfg_.map, version);
     return {std::move(verified), std::move(res.body)};

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "pl/common/text.hpp"
+#include "pl/schema/http_client.hpp"
 #include "pl/schema/store.hpp"
 
 namespace pl::client::wire {
@@ -56,6 +57,12 @@ json parse(std::string_view body, const char* what) {
 }
 
 }  // namespace
+
+std::string signed_manifest_target(const std::string& map, long long version, int refusals) {
+  std::string target = "/v1/maps/" + api::url_encode(map) + "/versions/" + std::to_string(version) + "/manifest";
+  if (refusals > 0) target += "?refused=" + std::to_string(refusals);
+  return target;
+}
 
 CachedManifest parse_manifest(std::string_view body, const std::string& map, std::optional<long long> pin) {
   const json j = parse(body, "the manifest");

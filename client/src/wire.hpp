@@ -1,5 +1,6 @@
 // What the tile client reads from pl-server's answers (schema/openapi.yaml): the manifest, region-
-// of-interest answers, error bodies, tile bytes and places. Pure functions over the bytes that arrived, so
+// of-interest answers, error bodies, tile bytes and places (and the one URL whose form is the client's
+// own choice: a signed manifest's after a refusal). Pure functions over the bytes that arrived, so
 // that they are tested and fuzzed without a network: anything a server (or whatever sits between it
 // and the vehicle) sends is refused with a WireError naming what is wrong, never trusted.
 // Private to pl_client; shared by the tile client and the client_answers fuzz target.
@@ -31,6 +32,11 @@ using api::valid_tile_size;
 // GET /v1/maps/{map}: the manifest of `map`. The version is `pin` when given, else the map's
 // current one (a WireError when it has none). tile_size must be valid_tile_size.
 CachedManifest parse_manifest(std::string_view body, const std::string& map, std::optional<long long> pin);
+
+// The target of GET /v1/maps/{map}/versions/{version}/manifest, after `refusals` signed manifests were
+// refused: then with ?refused=N, another entry of any cache on the way, so that one poisoned cache
+// entry does not keep vehicles off a signed map. The tile client and pl-fleet ask by it alike.
+std::string signed_manifest_target(const std::string& map, long long version, int refusals);
 
 // GET /v1/maps/{map}/versions/{v}/manifest with fleet keys: a signed manifest
 // (pl/schema/signed_manifest.hpp) that verifies against one of `trusted` and is that of `map`

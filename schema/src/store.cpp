@@ -201,20 +201,20 @@ void require_staged(const Db& db, const std::string& map, std::int64_t map_id,
 // ---- tiles ---------------------------------------------------------------------------------------
 
 
-TileRecord read_tile(const Stmt& st) {
+TileRecord read_tile(const Stmt& st, int first) {
   Row row(st, "tiles");
   TileRecord r;
-  r.key = TileKey{static_cast<std::int32_t>(row.integer(0, "tx", kMinKey, kMaxKey)),
-                  static_cast<std::int32_t>(row.integer(1, "ty", kMinKey, kMaxKey))};
-  r.hash = row.hash(2, "hash");
-  r.points = row.integer(3, "points", 0, kMaxInt64);
-  r.bytes = row.integer(4, "bytes", 0, kMaxInt64);
-  r.min_x = row.number(5, "min_x");
-  r.min_y = row.number(6, "min_y");
-  r.min_z = row.number(7, "min_z");
-  r.max_x = row.number(8, "max_x");
-  r.max_y = row.number(9, "max_y");
-  r.max_z = row.number(10, "max_z");
+  r.key = TileKey{static_cast<std::int32_t>(row.integer(first, "tx", kMinKey, kMaxKey)),
+                  static_cast<std::int32_t>(row.integer(first + 1, "ty", kMinKey, kMaxKey))};
+  r.hash = row.hash(first + 2, "hash");
+  r.points = row.integer(first + 3, "points", 0, kMaxInt64);
+  r.bytes = row.integer(first + 4, "bytes", 0, kMaxInt64);
+  r.min_x = row.number(first + 5, "min_x");
+  r.min_y = row.number(first + 6, "min_y");
+  r.min_z = row.number(first + 7, "min_z");
+  r.max_x = row.number(first + 8, "max_x");
+  r.max_y = row.number(first + 9, "max_y");
+  r.max_z = row.number(first + 10, "max_z");
   if (!(r.min_x <= r.max_x && r.min_y <= r.max_y && r.min_z <= r.max_z)) row.bad("min_x", "and the other bounds have min > max");
   return r;
 }

@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "pl/common/error.hpp"
 #include "pl/schema/store.hpp"
 
 namespace pl::store::detail {
@@ -102,6 +103,13 @@ class RowSink {
   virtual void finish() {}
 };
 
+// The damaged error of export_rows for a blob or places whose bytes do not hash to their hash (or
+// whose size column disagrees), told apart from every other failure by checked_digest: a store
+// whose bytes changed is reported damaged, as integrity_ok reports it, not failed.
+struct DamagedBytes : Error {
+  using Error::Error;
+};
+
 // What an importer refuses to write into: a store holding any map, blob, token or log entry.
 struct StoreContent {
   std::int64_t maps = 0, blobs = 0, tokens = 0, log_entries = 0;
@@ -173,13 +181,17 @@ class StoreBackend {
   virtual bool usable() const { return true; }
 
   virtual std::int64_t database_bytes() const = 0;
-  virtual bool integrity_ok() const = 0;
+  // Store::integrity_ok with `hash_bytes`; without it, every check but the hashes and sizes of blobs
+  // and places, for a caller that reads every blob through export_rows anyway, which checks them
+  // (DamagedBytes): the copy's read-back, checked_digest. Each blob is then read once, not twice.
+  virtual bool integrity_ok(bool hash_bytes) const = 0;
 
   // ---- the exact copy of a whole store (store_copy.cpp) ----
   // Hands every row to `out` (RowSink says in which order), read from one snapshot: a read
   // transaction of its own, or the transaction this connection has open (an importer's, to verify
-  // what it wrote before committing). Every value is checked as the other reads check it; a blob or
-  // places whose bytes do not hash to their hash is the damaged error. Blob and places bytes are
+  // what it wrote before committing). Every value is checked as the other reads check it
+  // (store_copy_rows.hpp); a blob or places whose bytes do not hash to their hash is the damaged
+  // error, a DamagedBytes. Blob and places bytes are
   // read a few at a time (PostgreSQL: batches of at most kCopyBatchBytes), never all at once.
   virtual void export_rows(RowSink& out) const = 0;
   // What the store holds of what makes it non-empty (StoreContent).

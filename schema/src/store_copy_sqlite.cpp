@@ -1,13 +1,12 @@
 // The exact copy of a whole store, the SQLite engine's half: every row read verbatim (export_rows)
 // and written verbatim (importer) — ids, timestamps, states and publish history included. The copy
 // itself (which store to which, the one transaction, the digests) is store_copy.cpp's.
-#include <limits>
 #include <map>
 #include <utility>
 #include <vector>
 
 #include "pl/common/error.hpp"
-#include "pl/schema/api_rules.hpp"
+#include "store_copy_rows.hpp"
 #include "store_internal.hpp"
 
 namespace pl::store::detail {
@@ -16,21 +15,33 @@ namespace {
 
 using Table = RowSink::Table;
 
-VersionState parse_state(const Row& row, int col, const char* column) {
-  const std::string s = row.text(col, column);
-  if (s == "staged") return VersionState::Staged;
-  if (s == "published") return VersionState::Published;
-  if (s == "retired") return VersionState::Retired;
-  row.bad(column, "is not one of staged, published, retired");
-}
+// The copy's row readers (store_copy_rows.hpp) over a row of a SQLite statement.
+class CopyRow : public Row {
+ public:
+  CopyRow(const Stmt& st, const char* table) : Row(st, table), st_(st) {}
+  std::string bytes(int col, const char* column) const { return blob(col, column); }
+  std::string timestamp(int col, const char* column) const { return read_timestamp(*this, col, column); }
+  std::optional<std::string> opt_timestamp(int col, const char* column) const {
+    if (st_.is_null(col)) return std::nullopt;
+    return timestamp(col, column);
+  }
+  VersionState state(int col, const char* column) const { return read_state(*this, col, column); }
+  TileRecord tile(int first) const { return read_tile(st_, first); }
 
-std::optional<std::string> opt_timestamp(const Stmt& st, const Row& row, int col, const char* column) {
-  if (st.is_null(col)) return std::nullopt;
-  return read_timestamp(row, col, column);
-}
+ private:
+  const Stmt& st_;
+};
 
 std::int64_t rows_of(const Db& db, const char* table) {
   return sqlite::query_int(db, (std::string("SELECT count(*) FROM ") + table).c_str());
+}
+
+// Hands each row of `sql` (on `table`), as `read` reads it, to `put`. One row at a time: the
+// statement steps through the table, SQLite holds the current row only (blobs pass through).
+template <typename Read, typename Put>
+void each_row(const Db& db, const char* table, const char* sql, Read read, Put put) {
+  Stmt st(db, sql);
+  while (st.step()) put(read(CopyRow(st, table)));
 }
 
 }  // namespace
@@ -38,6 +49,7 @@ std::int64_t rows_of(const Db& db, const char* table) {
 // ---- reading ---------------------------------------------------------------------------------------
 
 void SqliteStore::export_rows(RowSink& out) const {
+  using namespace copy_rows;
   const Db db = conn();
   // A read transaction of its own (WAL: one snapshot, writers go on) unless the connection has one
   // open: the importer's, whose rows are read back before it commits.
@@ -45,149 +57,34 @@ void SqliteStore::export_rows(RowSink& out) const {
   if (sqlite3_get_autocommit(db.get()) != 0) snapshot.emplace(db);
 
   out.begin_table(Table::Maps, rows_of(db, "maps"));
-  {
-    Stmt st(db,
-            "SELECT id, name, origin_lat, origin_lon, origin_alt, tile_size, voxel_size, current_version, created "
-            "FROM maps ORDER BY id");
-    while (st.step()) {
-      Row row(st, "maps");
-      MapRow m;
-      m.id = row.integer(0, "id");
-      m.name = row.text(1, "name");
-      if (!api::valid_map_name(m.name)) row.bad("name", "is not a valid map name");
-      m.origin_lat = row.number(2, "origin_lat", -90, 90);
-      m.origin_lon = row.number(3, "origin_lon", -180, 180);
-      m.origin_alt = row.number(4, "origin_alt");
-      m.tile_size = row.positive(5, "tile_size");
-      m.voxel_size = row.positive(6, "voxel_size");
-      m.current_version = row.opt_integer(7, "current_version", 1, kMaxInt64);
-      m.created = read_timestamp(row, 8, "created");
-      out.map(m);
-    }
-  }
+  each_row(db, "maps",
+           "SELECT id, name, origin_lat, origin_lon, origin_alt, tile_size, voxel_size, current_version, created "
+           "FROM maps ORDER BY id",
+           map_row<CopyRow>, [&](const MapRow& m) { out.map(m); });
   out.begin_table(Table::Versions, rows_of(db, "versions"));
-  {
-    Stmt st(db,
-            "SELECT id, map_id, number, parent, state, created, note, published, replaces FROM versions ORDER BY id");
-    while (st.step()) {
-      Row row(st, "versions");
-      VersionRow v;
-      v.id = row.integer(0, "id");
-      v.map_id = row.integer(1, "map_id");
-      v.number = row.integer(2, "number", 1, kMaxInt64);
-      v.parent = row.opt_integer(3, "parent", 1, kMaxInt64);
-      v.state = parse_state(row, 4, "state");
-      v.created = read_timestamp(row, 5, "created");
-      v.note = row.text(6, "note");
-      v.published = opt_timestamp(st, row, 7, "published");
-      v.replaces = row.opt_integer(8, "replaces", 1, kMaxInt64);
-      out.version(v);
-    }
-  }
-  // One blob at a time: the statement steps through the table, SQLite holds the current row only.
+  each_row(db, "versions",
+           "SELECT id, map_id, number, parent, state, created, note, published, replaces FROM versions ORDER BY id",
+           version_row<CopyRow>, [&](const VersionRow& v) { out.version(v); });
   out.begin_table(Table::Blobs, rows_of(db, "blobs"));
-  {
-    Stmt st(db, "SELECT hash, bytes, size FROM blobs ORDER BY hash");
-    while (st.step()) {
-      Row row(st, "blobs");
-      BlobRow b;
-      b.hash = row.hash(0, "hash");
-      b.bytes = row.blob(1, "bytes");
-      if (row.integer(2, "size") != static_cast<std::int64_t>(b.bytes.size()) || content_hash(b.bytes) != b.hash)
-        row.bad("bytes", "of blob " + b.hash + " do not hash to it");
-      out.blob(b);
-    }
-  }
+  each_row(db, "blobs", "SELECT hash, bytes, size FROM blobs ORDER BY hash", blob_row<CopyRow>,
+           [&](const BlobRow& b) { out.blob(b); });
   out.begin_table(Table::Tiles, rows_of(db, "tiles"));
-  {
-    Stmt st(db,
-            "SELECT id, map_id, version, tx, ty, hash, points, bytes, min_x, min_y, min_z, max_x, max_y, max_z "
-            "FROM tiles ORDER BY id");
-    while (st.step()) {
-      Row row(st, "tiles");
-      TileRow t;
-      t.id = row.integer(0, "id");
-      t.map_id = row.integer(1, "map_id");
-      t.version = row.integer(2, "version", 1, kMaxInt64);
-      t.tx = row.integer(3, "tx", kMinKey, kMaxKey);
-      t.ty = row.integer(4, "ty", kMinKey, kMaxKey);
-      t.hash = row.hash(5, "hash");
-      t.points = row.integer(6, "points", 0, kMaxInt64);
-      t.bytes = row.integer(7, "bytes", 0, kMaxInt64);
-      t.min_x = row.number(8, "min_x");
-      t.min_y = row.number(9, "min_y");
-      t.min_z = row.number(10, "min_z");
-      t.max_x = row.number(11, "max_x");
-      t.max_y = row.number(12, "max_y");
-      t.max_z = row.number(13, "max_z");
-      out.tile(t);
-    }
-  }
+  each_row(db, "tiles",
+           "SELECT id, map_id, version, tx, ty, hash, points, bytes, min_x, min_y, min_z, max_x, max_y, max_z "
+           "FROM tiles ORDER BY id",
+           tile_row<CopyRow>, [&](const TileRow& t) { out.tile(t); });
   out.begin_table(Table::Places, rows_of(db, "places"));
-  {
-    Stmt st(db, "SELECT id, map_id, version, hash, bytes, size FROM places ORDER BY id");
-    while (st.step()) {
-      Row row(st, "places");
-      PlacesRow p;
-      p.id = row.integer(0, "id");
-      p.map_id = row.integer(1, "map_id");
-      p.version = row.integer(2, "version", 1, kMaxInt64);
-      p.hash = row.hash(3, "hash");
-      p.bytes = row.blob(4, "bytes");
-      if (row.integer(5, "size") != static_cast<std::int64_t>(p.bytes.size()) || content_hash(p.bytes) != p.hash)
-        row.bad("bytes", "of the places of version " + num(p.version) + " do not hash to their hash");
-      out.places(p);
-    }
-  }
+  each_row(db, "places", "SELECT id, map_id, version, hash, bytes, size FROM places ORDER BY id", places_row<CopyRow>,
+           [&](const PlacesRow& p) { out.places(p); });
   out.begin_table(Table::Signatures, rows_of(db, "signatures"));
-  {
-    Stmt st(db, "SELECT id, map_id, version, public_key, signature, signed FROM signatures ORDER BY id");
-    while (st.step()) {
-      Row row(st, "signatures");
-      SignatureRow s;
-      s.id = row.integer(0, "id");
-      s.map_id = row.integer(1, "map_id");
-      s.version = row.integer(2, "version", 1, kMaxInt64);
-      s.public_key = row.blob(3, "public_key");
-      s.signature = row.blob(4, "signature");
-      if (s.public_key.size() != 32 || s.signature.size() != 64) row.bad("signature", "or its key has the wrong size");
-      s.signed_at = read_timestamp(row, 5, "signed");
-      out.signature(s);
-    }
-  }
+  each_row(db, "signatures", "SELECT id, map_id, version, public_key, signature, signed FROM signatures ORDER BY id",
+           signature_row<CopyRow>, [&](const SignatureRow& s) { out.signature(s); });
   out.begin_table(Table::Tokens, rows_of(db, "tokens"));
-  {
-    Stmt st(db, "SELECT id, hash, role, note, created, revoked FROM tokens ORDER BY id");
-    while (st.step()) {
-      Row row(st, "tokens");
-      TokenRow t;
-      t.id = row.integer(0, "id", 1);
-      t.hash = row.hash(1, "hash");
-      auto role = parse_role(row.text(2, "role"));
-      if (!role) row.bad("role", "is not one of read, upload, admin");
-      t.role = *role;
-      t.note = row.text(3, "note");
-      t.created = read_timestamp(row, 4, "created");
-      t.revoked = opt_timestamp(st, row, 5, "revoked");
-      out.token(t);
-    }
-  }
+  each_row(db, "tokens", "SELECT id, hash, role, note, created, revoked FROM tokens ORDER BY id", token_row<CopyRow>,
+           [&](const TokenRow& t) { out.token(t); });
   out.begin_table(Table::UploadLog, rows_of(db, "upload_log"));
-  {
-    Stmt st(db, "SELECT id, at, map, version, action, detail, who FROM upload_log ORDER BY id");
-    while (st.step()) {
-      Row row(st, "upload_log");
-      LogRow e;
-      e.id = row.integer(0, "id");
-      e.at = read_timestamp(row, 1, "at");
-      e.map = row.text(2, "map");
-      e.version = row.opt_integer(3, "version", std::numeric_limits<std::int64_t>::min(), kMaxInt64);
-      e.action = row.text(4, "action");
-      e.detail = row.text(5, "detail");
-      e.who = row.text(6, "who");
-      out.log(e);
-    }
-  }
+  each_row(db, "upload_log", "SELECT id, at, map, version, action, detail, who FROM upload_log ORDER BY id", log_row<CopyRow>,
+           [&](const LogRow& e) { out.log(e); });
   if (snapshot) snapshot->end();
 }
 

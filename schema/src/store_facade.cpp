@@ -186,6 +186,6 @@ Store::Transaction::~Transaction() {
 
 std::int64_t Store::database_bytes() const { return impl().database_bytes(); }
 bool Store::usable() const { return impl_ && impl_->usable(); }
-bool Store::integrity_ok() const { return impl().integrity_ok(); }
+bool Store::integrity_ok() const { return impl().integrity_ok(true); }
 
 }  // namespace pl::store

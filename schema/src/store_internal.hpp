@@ -22,6 +22,7 @@ inline constexpr const char* kTileColumns =
 std::int64_t pragma_int(const sqlite::Db& db, const char* sql);
 std::string num(std::int64_t v);
 std::string read_timestamp(const sqlite::Row& row, int col, const char* column);
+VersionState read_state(const sqlite::Row& row, int col, const char* column);
 
 std::optional<std::int64_t> find_map_id(const sqlite::Db& db, const std::string& name);
 std::int64_t require_map(const sqlite::Db& db, const std::string& name);  // throws for an unknown map
@@ -30,7 +31,9 @@ std::int64_t require_map(const sqlite::Db& db, const std::string& name);  // thr
 void require_staged(const sqlite::Db& db, const std::string& map, std::int64_t map_id, std::int64_t number,
                     const char* what = "tiles");
 
-TileRecord read_tile(const sqlite::Stmt& st);  // a row of kTileColumns, checked
+// A row of kTileColumns, checked; `first`: the column its tx is in (the exact copy's rows have
+// their ids before it).
+TileRecord read_tile(const sqlite::Stmt& st, int first = 0);
 std::optional<std::string> tile_hash(const sqlite::Db& db, std::int64_t map_id, std::int64_t version, const TileKey& key);
 void drop_blob_if_unused(const sqlite::Db& db, const std::string& hash);
 
@@ -81,7 +84,7 @@ class SqliteStore final : public StoreBackend {
   void commit_transaction(bool nested) override;
   void rollback_transaction_quietly(bool nested) noexcept override;
   std::int64_t database_bytes() const override;
-  bool integrity_ok() const override;
+  bool integrity_ok(bool hash_bytes) const override;
   // The exact copy (store_copy_sqlite.cpp / store_pg_copy.cpp).
   void export_rows(RowSink& out) const override;
   StoreContent content() const override;

@@ -93,7 +93,7 @@ class PgStore final : public StoreBackend {
   void rollback_transaction_quietly(bool nested) noexcept override;
 
   std::int64_t database_bytes() const override;
-  bool integrity_ok() const override;
+  bool integrity_ok(bool hash_bytes) const override;
   // The exact copy (store_copy_sqlite.cpp / store_pg_copy.cpp).
   void export_rows(RowSink& out) const override;
   StoreContent content() const override;
@@ -227,8 +227,9 @@ const char* pg_opt(const std::optional<std::string>& s);
 std::optional<std::string> pg_opt_int(const std::optional<std::int64_t>& v);
 std::string pg_num(std::int64_t v);
 
-// A row of tx, ty, hash, points, bytes, min_x, min_y, min_z, max_x, max_y, max_z, checked.
-TileRecord read_pg_tile(const PgStore& store, const pqxx::row& row);
+// A row of tx, ty, hash, points, bytes, min_x, min_y, min_z, max_x, max_y, max_z, checked;
+// `first`: the column its tx is in (the exact copy's rows have their ids before it).
+TileRecord read_pg_tile(const PgStore& store, const pqxx::row& row, int first = 0);
 
 // The statements (prepared once at open): name and SQL.
 struct PgStatement {

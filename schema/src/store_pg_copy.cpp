@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "pl/common/error.hpp"
-#include "pl/schema/api_rules.hpp"
+#include "store_copy_rows.hpp"
 #include "store_pg.hpp"
 
 namespace pl::store::detail {
@@ -26,20 +26,35 @@ std::int64_t rows_of(Work& w, const char* table) {
   return w.exec1(std::string("SELECT count(*) FROM ") + table)[0].as<std::int64_t>();
 }
 
-std::optional<std::string> opt_timestamp(const PgRow& row, const pqxx::row& r, int col, const char* column) {
-  if (r[col].is_null()) return std::nullopt;
-  return row.timestamp(col, column);
-}
+// The copy's row readers (store_copy_rows.hpp) over a row of a PostgreSQL result.
+class CopyRow : public PgRow {
+ public:
+  CopyRow(const PgStore& store, const pqxx::row& row, const char* table) : PgRow(store, row, table), store_(store), row_(row) {}
+  std::optional<std::string> opt_timestamp(int col, const char* column) const {
+    if (row_[col].is_null()) return std::nullopt;
+    return timestamp(col, column);
+  }
+  TileRecord tile(int first) const { return read_pg_tile(store_, row_, first); }
 
-// Runs `sql` (its $1 the last id read, its rows ordered by id and LIMITed) page by page, handing
-// each row to f.
-template <typename F>
-void by_pages(Work& w, const std::string& sql, F&& f) {
+ private:
+  const PgStore& store_;
+  const pqxx::row row_;  // a handle sharing the result, as PgRow's
+};
+
+// Runs `sql` (on `table`; its $1 the last id read, its rows ordered by id and LIMITed to `rows`)
+// page by page, handing each row, as `read` reads it, to `put`.
+template <typename Read, typename Put>
+void by_pages(const PgStore& store, Work& w, const char* table, const std::string& sql, Read read, Put put,
+              int rows = kPageRows) {
   std::int64_t after = std::numeric_limits<std::int64_t>::min();
   for (;;) {
     const pqxx::result r = w.exec_params(sql, after);
-    for (const auto& row : r) after = f(row);
-    if (r.size() < static_cast<std::size_t>(kPageRows)) return;
+    for (const auto& row : r) {
+      const auto value = read(CopyRow(store, row, table));
+      after = value.id;
+      put(value);
+    }
+    if (r.size() < static_cast<std::size_t>(rows)) return;
   }
 }
 
@@ -55,46 +70,18 @@ void PgStore::export_rows(RowSink& out) const {
     const bool own = !in_transaction();
     if (own) w.exec("BEGIN ISOLATION LEVEL REPEATABLE READ, READ ONLY");
     try {
+      using namespace copy_rows;
       const std::string page = " ORDER BY id LIMIT " + std::to_string(kPageRows);
       out.begin_table(Table::Maps, rows_of(w, "maps"));
-      by_pages(w,
+      by_pages(*this, w, "maps",
                "SELECT id, name, origin_lat, origin_lon, origin_alt, tile_size, voxel_size, current_version, " PL_PG_TIMESTAMP(
                    "created") " FROM maps WHERE id > $1" + page,
-               [&](const pqxx::row& r) {
-                 PgRow row(*this, r, "maps");
-                 MapRow m;
-                 m.id = row.integer(0, "id");
-                 m.name = row.text(1, "name");
-                 if (!api::valid_map_name(m.name)) row.bad("name", "is not a valid map name");
-                 m.origin_lat = row.number(2, "origin_lat", -90, 90);
-                 m.origin_lon = row.number(3, "origin_lon", -180, 180);
-                 m.origin_alt = row.number(4, "origin_alt");
-                 m.tile_size = row.positive(5, "tile_size");
-                 m.voxel_size = row.positive(6, "voxel_size");
-                 m.current_version = row.opt_integer(7, "current_version", 1);
-                 m.created = row.timestamp(8, "created");
-                 out.map(m);
-                 return m.id;
-               });
+               map_row<CopyRow>, [&](const MapRow& m) { out.map(m); });
       out.begin_table(Table::Versions, rows_of(w, "versions"));
-      by_pages(w,
+      by_pages(*this, w, "versions",
                "SELECT id, map_id, number, parent, state, " PL_PG_TIMESTAMP("created") ", note, " PL_PG_TIMESTAMP(
                    "published") ", replaces FROM versions WHERE id > $1" + page,
-               [&](const pqxx::row& r) {
-                 PgRow row(*this, r, "versions");
-                 VersionRow v;
-                 v.id = row.integer(0, "id");
-                 v.map_id = row.integer(1, "map_id");
-                 v.number = row.integer(2, "number", 1);
-                 v.parent = row.opt_integer(3, "parent", 1);
-                 v.state = row.state(4, "state");
-                 v.created = row.timestamp(5, "created");
-                 v.note = row.text(6, "note");
-                 v.published = opt_timestamp(row, r, 7, "published");
-                 v.replaces = row.opt_integer(8, "replaces", 1);
-                 out.version(v);
-                 return v.id;
-               });
+               version_row<CopyRow>, [&](const VersionRow& v) { out.version(v); });
       // Blobs: their sizes first, then the bytes in batches of at most kCopyBatchBytes (one blob
       // when it is larger), by ranges of hashes in byte order (COLLATE "C", as SQLite sorts them).
       {
@@ -115,112 +102,35 @@ void PgStore::export_rows(RowSink& out) const {
               "ORDER BY hash COLLATE \"C\"",
               first, last);
           if (r.size() != j - i) damaged("blobs changed while they were read");
-          for (const auto& rr : r) {
-            PgRow row(*this, rr, "blobs");
-            BlobRow b;
-            b.hash = row.hash(0, "hash");
-            b.bytes = row.bytes(1, "bytes");
-            if (row.integer(2, "size") != static_cast<std::int64_t>(b.bytes.size()) || content_hash(b.bytes) != b.hash)
-              row.bad("bytes", "of blob " + b.hash + " do not hash to it");
-            out.blob(b);
-          }
+          for (const auto& row : r) out.blob(blob_row(CopyRow(*this, row, "blobs")));
           i = j;
         }
       }
       out.begin_table(Table::Tiles, rows_of(w, "tiles"));
-      by_pages(w,
+      by_pages(*this, w, "tiles",
                "SELECT id, map_id, version, tx, ty, hash, points, bytes, min_x, min_y, min_z, max_x, max_y, max_z "
                "FROM tiles WHERE id > $1" + page,
-               [&](const pqxx::row& r) {
-                 PgRow row(*this, r, "tiles");
-                 TileRow t;
-                 t.id = row.integer(0, "id");
-                 t.map_id = row.integer(1, "map_id");
-                 t.version = row.integer(2, "version", 1);
-                 t.tx = row.integer(3, "tx", INT32_MIN, INT32_MAX);
-                 t.ty = row.integer(4, "ty", INT32_MIN, INT32_MAX);
-                 t.hash = row.hash(5, "hash");
-                 t.points = row.integer(6, "points", 0);
-                 t.bytes = row.integer(7, "bytes", 0);
-                 t.min_x = row.number(8, "min_x");
-                 t.min_y = row.number(9, "min_y");
-                 t.min_z = row.number(10, "min_z");
-                 t.max_x = row.number(11, "max_x");
-                 t.max_y = row.number(12, "max_y");
-                 t.max_z = row.number(13, "max_z");
-                 out.tile(t);
-                 return t.id;
-               });
+               tile_row<CopyRow>, [&](const TileRow& t) { out.tile(t); });
       // Places (up to 64 MiB each): one row a page.
       out.begin_table(Table::Places, rows_of(w, "places"));
-      for (std::int64_t after = std::numeric_limits<std::int64_t>::min();;) {
-        const pqxx::result r = w.exec_params(
-            "SELECT id, map_id, version, hash, bytes, size FROM places WHERE id > $1 ORDER BY id LIMIT 1", after);
-        if (r.empty()) break;
-        PgRow row(*this, r[0], "places");
-        PlacesRow p;
-        p.id = after = row.integer(0, "id");
-        p.map_id = row.integer(1, "map_id");
-        p.version = row.integer(2, "version", 1);
-        p.hash = row.hash(3, "hash");
-        p.bytes = row.bytes(4, "bytes");
-        if (row.integer(5, "size") != static_cast<std::int64_t>(p.bytes.size()) || content_hash(p.bytes) != p.hash)
-          row.bad("bytes", "of the places of version " + pg_num(p.version) + " do not hash to their hash");
-        out.places(p);
-      }
+      by_pages(
+          *this, w, "places", "SELECT id, map_id, version, hash, bytes, size FROM places WHERE id > $1 ORDER BY id LIMIT 1",
+          places_row<CopyRow>, [&](const PlacesRow& p) { out.places(p); }, 1);
       out.begin_table(Table::Signatures, rows_of(w, "signatures"));
-      by_pages(w,
+      by_pages(*this, w, "signatures",
                "SELECT id, map_id, version, public_key, signature, " PL_PG_TIMESTAMP("signed") " FROM signatures "
                "WHERE id > $1" + page,
-               [&](const pqxx::row& r) {
-                 PgRow row(*this, r, "signatures");
-                 SignatureRow s;
-                 s.id = row.integer(0, "id");
-                 s.map_id = row.integer(1, "map_id");
-                 s.version = row.integer(2, "version", 1);
-                 s.public_key = row.bytes(3, "public_key");
-                 s.signature = row.bytes(4, "signature");
-                 if (s.public_key.size() != 32 || s.signature.size() != 64)
-                   row.bad("signature", "or its key has the wrong size");
-                 s.signed_at = row.timestamp(5, "signed");
-                 out.signature(s);
-                 return s.id;
-               });
+               signature_row<CopyRow>, [&](const SignatureRow& s) { out.signature(s); });
       out.begin_table(Table::Tokens, rows_of(w, "tokens"));
-      by_pages(w,
+      by_pages(*this, w, "tokens",
                "SELECT id, hash, role, note, " PL_PG_TIMESTAMP("created") ", " PL_PG_TIMESTAMP("revoked") " FROM tokens "
                "WHERE id > $1" + page,
-               [&](const pqxx::row& r) {
-                 PgRow row(*this, r, "tokens");
-                 TokenRow t;
-                 t.id = row.integer(0, "id", 1);
-                 t.hash = row.hash(1, "hash");
-                 auto role = parse_role(row.text(2, "role"));
-                 if (!role) row.bad("role", "is not one of read, upload, admin");
-                 t.role = *role;
-                 t.note = row.text(3, "note");
-                 t.created = row.timestamp(4, "created");
-                 t.revoked = opt_timestamp(row, r, 5, "revoked");
-                 out.token(t);
-                 return t.id;
-               });
+               token_row<CopyRow>, [&](const TokenRow& t) { out.token(t); });
       out.begin_table(Table::UploadLog, rows_of(w, "upload_log"));
-      by_pages(w,
+      by_pages(*this, w, "upload_log",
                "SELECT id, " PL_PG_TIMESTAMP("at") ", map, version, action, detail, who FROM upload_log "
                "WHERE id > $1" + page,
-               [&](const pqxx::row& r) {
-                 PgRow row(*this, r, "upload_log");
-                 LogRow e;
-                 e.id = row.integer(0, "id");
-                 e.at = row.timestamp(1, "at");
-                 e.map = row.text(2, "map");
-                 e.version = row.opt_integer(3, "version");
-                 e.action = row.text(4, "action");
-                 e.detail = row.text(5, "detail");
-                 e.who = row.text(6, "who");
-                 out.log(e);
-                 return e.id;
-               });
+               log_row<CopyRow>, [&](const LogRow& e) { out.log(e); });
       if (own) w.exec("COMMIT");
     } catch (...) {
       if (own) {

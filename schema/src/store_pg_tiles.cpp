@@ -23,6 +23,23 @@ std::string version_name(const std::string& map, std::int64_t version) {
 
 }  // namespace
 
+// Every rule the schema states that PostgreSQL does not enforce on its own: tiles point at blobs and
+// versions, places at versions, a current version is the one published version of its map, a
+// parent exists.
+#define PL_PG_INTEGRITY_RULES                                                                                         \
+  "SELECT NOT EXISTS (SELECT 1 FROM tiles AS t WHERE NOT EXISTS (SELECT 1 FROM blobs AS b WHERE b.hash = t.hash)) "   \
+  "AND NOT EXISTS (SELECT 1 FROM tiles AS t WHERE NOT EXISTS (SELECT 1 FROM versions AS v "                           \
+  "  WHERE v.map_id = t.map_id AND v.number = t.version)) "                                                           \
+  "AND NOT EXISTS (SELECT 1 FROM places AS p WHERE "                                                                  \
+  "  NOT EXISTS (SELECT 1 FROM versions AS v WHERE v.map_id = p.map_id AND v.number = p.version)) "                   \
+  "AND NOT EXISTS (SELECT 1 FROM maps AS m WHERE m.current_version IS NOT NULL AND NOT EXISTS ("                      \
+  "  SELECT 1 FROM versions AS v WHERE v.map_id = m.id AND v.number = m.current_version AND v.state = 'published')) " \
+  "AND NOT EXISTS (SELECT 1 FROM versions WHERE state = 'published' GROUP BY map_id HAVING count(*) > 1) "            \
+  "AND NOT EXISTS (SELECT 1 FROM versions AS v JOIN maps AS m ON m.id = v.map_id "                                    \
+  "  WHERE v.state = 'published' AND m.current_version IS DISTINCT FROM v.number) "                                   \
+  "AND NOT EXISTS (SELECT 1 FROM versions AS v WHERE v.parent IS NOT NULL AND NOT EXISTS ("                           \
+  "  SELECT 1 FROM versions AS p WHERE p.map_id = v.map_id AND p.number = v.parent))"
+
 const PgStatement kPgTileStatements[] = {
     {"schema_version", "SELECT coalesce(max(number), 0) FROM schema_migrations"},
     // ---- tiles and blobs
@@ -105,21 +122,12 @@ const PgStatement kPgTileStatements[] = {
     // What the schema promises and PostgreSQL cannot check once a row is written: tiles use
     // existing blobs of existing versions, every blob and places hash to their hash, the current
     // version is the one published version of its map, parents exist.
-    {"integrity",
-     "SELECT NOT EXISTS (SELECT 1 FROM tiles AS t WHERE NOT EXISTS (SELECT 1 FROM blobs AS b WHERE b.hash = t.hash)) "
-     "AND NOT EXISTS (SELECT 1 FROM tiles AS t WHERE NOT EXISTS (SELECT 1 FROM versions AS v "
-     "  WHERE v.map_id = t.map_id AND v.number = t.version)) "
-     "AND NOT EXISTS (SELECT 1 FROM blobs WHERE encode(sha256(bytes), 'hex') <> hash OR size <> length(bytes)) "
-     "AND NOT EXISTS (SELECT 1 FROM places AS p WHERE encode(sha256(p.bytes), 'hex') <> p.hash "
-     "  OR p.size <> length(p.bytes) "
-     "  OR NOT EXISTS (SELECT 1 FROM versions AS v WHERE v.map_id = p.map_id AND v.number = p.version)) "
-     "AND NOT EXISTS (SELECT 1 FROM maps AS m WHERE m.current_version IS NOT NULL AND NOT EXISTS ("
-     "  SELECT 1 FROM versions AS v WHERE v.map_id = m.id AND v.number = m.current_version AND v.state = 'published')) "
-     "AND NOT EXISTS (SELECT 1 FROM versions WHERE state = 'published' GROUP BY map_id HAVING count(*) > 1) "
-     "AND NOT EXISTS (SELECT 1 FROM versions AS v JOIN maps AS m ON m.id = v.map_id "
-     "  WHERE v.state = 'published' AND m.current_version IS DISTINCT FROM v.number) "
-     "AND NOT EXISTS (SELECT 1 FROM versions AS v WHERE v.parent IS NOT NULL AND NOT EXISTS ("
-     "  SELECT 1 FROM versions AS p WHERE p.map_id = v.map_id AND p.number = v.parent))"},
+    // integrity_ok: the rules, and with "integrity" the blobs' and places' bytes against their
+    // hashes and sizes too (one statement: one snapshot).
+    {"integrity", PL_PG_INTEGRITY_RULES
+     " AND NOT EXISTS (SELECT 1 FROM blobs WHERE encode(sha256(bytes), 'hex') <> hash OR size <> length(bytes)) "
+     "AND NOT EXISTS (SELECT 1 FROM places WHERE encode(sha256(bytes), 'hex') <> hash OR size <> length(bytes))"},
+    {"integrity_rules", PL_PG_INTEGRITY_RULES},
 };
 const std::size_t kPgTileStatementCount = std::size(kPgTileStatements);
 
@@ -156,20 +164,20 @@ void PgStore::require_text(const std::string& s, const char* what) const {
                 " is not UTF-8 text without NUL bytes, which a PostgreSQL map store cannot hold: send it as UTF-8");
 }
 
-TileRecord read_pg_tile(const PgStore& store, const pqxx::row& r) {
+TileRecord read_pg_tile(const PgStore& store, const pqxx::row& r, int first) {
   PgRow row(store, r, "tiles");
   TileRecord t;
-  t.key = TileKey{static_cast<std::int32_t>(row.integer(0, "tx", INT32_MIN, INT32_MAX)),
-                  static_cast<std::int32_t>(row.integer(1, "ty", INT32_MIN, INT32_MAX))};
-  t.hash = row.hash(2, "hash");
-  t.points = row.integer(3, "points", 0);
-  t.bytes = row.integer(4, "bytes", 0);
-  t.min_x = row.number(5, "min_x");
-  t.min_y = row.number(6, "min_y");
-  t.min_z = row.number(7, "min_z");
-  t.max_x = row.number(8, "max_x");
-  t.max_y = row.number(9, "max_y");
-  t.max_z = row.number(10, "max_z");
+  t.key = TileKey{static_cast<std::int32_t>(row.integer(first, "tx", INT32_MIN, INT32_MAX)),
+                  static_cast<std::int32_t>(row.integer(first + 1, "ty", INT32_MIN, INT32_MAX))};
+  t.hash = row.hash(first + 2, "hash");
+  t.points = row.integer(first + 3, "points", 0);
+  t.bytes = row.integer(first + 4, "bytes", 0);
+  t.min_x = row.number(first + 5, "min_x");
+  t.min_y = row.number(first + 6, "min_y");
+  t.min_z = row.number(first + 7, "min_z");
+  t.max_x = row.number(first + 8, "max_x");
+  t.max_y = row.number(first + 9, "max_y");
+  t.max_z = row.number(first + 10, "max_z");
   if (!(t.min_x <= t.max_x && t.min_y <= t.max_y && t.min_z <= t.max_z))
     row.bad("min_x", "and the other bounds have min > max");
   return t;
@@ -460,10 +468,10 @@ std::int64_t PgStore::database_bytes() const {
   return one_statement([&](Work& w) { return w.exec_prepared1("db_size")[0].as<std::int64_t>(); });
 }
 
-bool PgStore::integrity_ok() const {
+bool PgStore::integrity_ok(bool hash_bytes) const {
   return one_statement([&](Work& w) {
     try {
-      const pqxx::row r = w.exec_prepared1("integrity");
+      const pqxx::row r = w.exec_prepared1(hash_bytes ? "integrity" : "integrity_rules");
       return std::strcmp(r[0].c_str(), "t") == 0;
     } catch (const pqxx::sql_error& e) {
       // PostgreSQL's own reports of damage (data_corrupted, index_corrupted) are a "no".

@@ -268,7 +268,7 @@ std::int64_t SqliteStore::database_bytes() const {
   return pragma_int(db, "PRAGMA page_count") * pragma_int(db, "PRAGMA page_size");
 }
 
-bool SqliteStore::integrity_ok() const {
+bool SqliteStore::integrity_ok(bool hash_bytes) const {
   const Db db = conn();
   try {
     {
@@ -290,9 +290,9 @@ bool SqliteStore::integrity_ok() const {
               "AND r.min_x <= t.min_x AND r.max_x >= t.max_x AND r.min_y <= t.min_y AND r.max_y >= t.max_y))");
       if (!st.step() || st.int64(0) != 1) return false;
     }
-    {
+    if (hash_bytes) {
       // Every blob and every version's places hash to their hash, as on PostgreSQL: SQLite keeps no
-      // checksums of its own, so bytes that changed on disk show only here.
+      // checksums of its own, so bytes that changed on disk show only here (or in export_rows).
       Stmt st(db, "SELECT hash, bytes FROM blobs UNION ALL SELECT hash, bytes FROM places");
       while (st.step()) {
         Row row(st, "blobs");

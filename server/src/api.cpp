@@ -40,22 +40,30 @@ namespace {
 // Content-addressed tiles never change: a byte-bounded cache shared by all threads.
 class BlobCache {
  public:
+  // Bytes, and their content hash when their key is not it (a manifest's: the hash is its ETag,
+  // kept with it so that no request hashes the bytes again).
+  struct Entry {
+    std::shared_ptr<const std::string> bytes;  // null: not kept
+    std::string hash;
+  };
+
   explicit BlobCache(std::size_t capacity) : capacity_(capacity) {}
-  std::shared_ptr<const std::string> get(const std::string& hash) {
+  std::shared_ptr<const std::string> get(const std::string& key) { return find(key).bytes; }
+  Entry find(const std::string& key) {
     std::shared_lock lock(mutex_);
-    auto it = map_.find(hash);
-    return it == map_.end() ? nullptr : it->second;
+    auto it = map_.find(key);
+    return it == map_.end() ? Entry{} : it->second;
   }
-  void put(const std::string& hash, std::shared_ptr<const std::string> bytes) {
+  void put(const std::string& key, std::shared_ptr<const std::string> bytes, std::string hash = {}) {
     if (bytes->size() > capacity_) return;
     std::unique_lock lock(mutex_);
-    if (map_.count(hash)) return;
+    if (map_.count(key)) return;
     size_ += bytes->size();
-    map_.emplace(hash, std::move(bytes));
-    order_.push_back(hash);
+    map_.emplace(key, Entry{std::move(bytes), std::move(hash)});
+    order_.push_back(key);
     while (size_ > capacity_ && !order_.empty()) {  // oldest first
       auto it = map_.find(order_.front());
-      size_ -= it->second->size();
+      size_ -= it->second.bytes->size();
       map_.erase(it);
       order_.pop_front();
     }
@@ -64,7 +72,7 @@ class BlobCache {
  private:
   std::size_t capacity_, size_ = 0;
   std::shared_mutex mutex_;
-  std::unordered_map<std::string, std::shared_ptr<const std::string>> map_;
+  std::unordered_map<std::string, Entry> map_;
   std::deque<std::string> order_;
 };
 
@@ -334,10 +342,12 @@ struct Api::Impl {
   // store's rows on first use and kept (VersionIndexCache).
   std::shared_ptr<const VersionIndex> published_index(const store::MapInfo& m, std::int64_t version) {
     auto index = version_indexes.find(m.name, version);
-    if (!index) {
-      index = std::make_shared<const VersionIndex>(m.tile_size, db().list_tiles(m.name, version));
-      version_indexes.put(m.name, version, index);
-    }
+    return index ? index : index_version(m, version);
+  }
+  // Builds and keeps the index of a published or retired version that version_indexes lacks.
+  std::shared_ptr<const VersionIndex> index_version(const store::MapInfo& m, std::int64_t version) {
+    auto index = std::make_shared<const VersionIndex>(m.tile_size, db().list_tiles(m.name, version));
+    version_indexes.put(m.name, version, index);
     return index;
   }
 
@@ -356,19 +366,21 @@ struct Api::Impl {
     const store::MapInfo& m = *found;
     double x = query_number(t, "x", true, 0), y = query_number(t, "y", true, 0), r = query_number(t, "radius", true, 0);
     if (!(r >= 0 && r <= api::kMaxRoiRadiusM)) fail(400, "radius must be between 0 and 5000 m");
+    const bool version_asked = t.query.count("version") > 0;
     std::int64_t version = 0;
-    bool staged_version = false;
-    if (t.query.count("version")) {
+    if (version_asked) {
       version = parse_version(t.query.at("version"));
-      // A version indexed here is published or retired, and stays so: no trip to the store (whose
-      // version row sums the version's tiles) on the vehicles' every query.
-      if (!version_indexes.find(name, version)) {
-        const store::VersionInfo info = need_version(m, version, staged);
-        staged_version = info.state == store::VersionState::Staged;
-      }
     } else {
       if (!m.current) fail(404, "map " + name + " has no published version");
       version = *m.current;
+    }
+    // A version indexed here is published or retired, and stays so: no trip to the store (whose
+    // version row sums the version's tiles) on the vehicles' every query, and the index looked up once.
+    std::shared_ptr<const VersionIndex> index = version_indexes.find(name, version);
+    bool staged_version = false;
+    if (!index && version_asked) {
+      const store::VersionInfo info = need_version(m, version, staged);
+      staged_version = info.state == store::VersionState::Staged;
     }
     std::set<std::string> have;
     if (t.query.count("have"))
@@ -381,12 +393,11 @@ struct Api::Impl {
     // one is read from the store each time, candidates from the R*Tree over tile boxes (grown by a
     // tile, since a tile's points need not reach its square's edge); then, either way, the exact
     // test against each tile's square.
-    std::shared_ptr<const VersionIndex> index;
-    if (!staged_version) {
-      index = published_index(m, version);
-    } else {
+    if (staged_version) {
       index = std::make_shared<const VersionIndex>(
           m.tile_size, db().tiles_in_box(name, version, x - r - m.tile_size, y - r - m.tile_size, x + r + m.tile_size, y + r + m.tile_size));
+    } else if (!index) {
+      index = index_version(m, version);
     }
     std::vector<const VersionIndex::Tile*> send;
     std::unordered_set<std::string_view> in_roi;  // for drop: only asked for with have=
@@ -531,23 +542,23 @@ struct Api::Impl {
     auto info = need_version(m, parse_version(vs), staged);
     const bool fixed = info.state != store::VersionState::Staged;
     const std::string key = "manifest/" + name + "/" + std::to_string(info.number);
-    std::shared_ptr<const std::string> body = fixed ? blobs.get(key) : nullptr;
-    if (!body) {
+    // Kept with its hash (the ETag): a request for a kept manifest hashes nothing.
+    BlobCache::Entry answer = fixed ? blobs.find(key) : BlobCache::Entry{};
+    if (!answer.bytes) {
       std::string text = signing::manifest_text(signing::manifest_of(db(), name, info.number));
       if (auto sig = db().signature(name, info.number)) text += signing::signature_line(sig->public_key, sig->signature);
-      body = std::make_shared<const std::string>(std::move(text));
-      if (fixed) blobs.put(key, body);
+      answer.hash = store::content_hash(text);
+      answer.bytes = std::make_shared<const std::string>(std::move(text));
+      if (fixed) blobs.put(key, answer.bytes, answer.hash);
     }
-    // Hashed on every request: a vehicle asks once per version, and caches in front keep it for good.
-    const std::string hash = store::content_hash(*body);
-    ApiResponse r = by_hash(req, hash, route, fixed ? kImmutable : "private, no-cache");
+    ApiResponse r = by_hash(req, answer.hash, route, fixed ? kImmutable : "private, no-cache");
     if (r.status == 304) return r;
     r.content_type = "text/plain; charset=utf-8";
     if (fixed) {  // sent from a file of its own, like tiles
-      r.blob = std::move(body);
-      r.blob_hash = hash;
+      r.blob = std::move(answer.bytes);
+      r.blob_hash = std::move(answer.hash);
     } else {
-      r.body = *body;
+      r.body = *answer.bytes;
     }
     return r;
   }

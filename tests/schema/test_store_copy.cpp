@@ -389,7 +389,44 @@ TEST_P(StoreCopyBoth, ASourceDamagedHalfWayLeavesTheDestinationEmpty) {
   }
 }
 
+// checked_digest (pl-map check): a sound store's is its store_digest; a store with a blob or places
+// whose bytes changed (same size: only the hash tells), which integrity_ok() finds, has none.
+TEST_P(StoreCopyBoth, CheckedDigestIsThatOfASoundStoreOnly) {
+  fill(dir / "src.db");
+  const std::string blob_changed = another("blob.db"), places_changed = another("places.db");
+  for (const std::string& to : {path, blob_changed, places_changed}) pl::store::copy_store(dir / "src.db", to);
+  EXPECT_EQ(pl::store::checked_digest(path), pl::store::store_digest(path));
+  const std::string zeros = sqlite() ? "zeroblob(size)" : "decode(repeat('00', size::int), 'hex')";
+  ASSERT_EQ(pl::test::raw_exec(GetParam(), blob_changed,
+                               "UPDATE blobs SET bytes = " + zeros + " WHERE hash = (SELECT max(hash) FROM blobs)"),
+            "");
+  // The places of a staged version (a published one's are read-only).
+  ASSERT_EQ(pl::test::raw_exec(GetParam(), places_changed,
+                               "UPDATE places SET bytes = " + zeros +
+                                   " WHERE version = 2 AND map_id = (SELECT id FROM maps WHERE name = 'harbour')"),
+            "");
+  for (const std::string& damaged : {blob_changed, places_changed}) {
+    EXPECT_FALSE(Store::open(damaged, false).integrity_ok()) << damaged;
+    EXPECT_EQ(pl::store::checked_digest(damaged), std::nullopt) << damaged;
+  }
+}
+
 PL_BOTH_BACKENDS(StoreCopyBoth);
+
+// A tile whose box is inverted (min > max: a crafted file, its CHECK constraints ignored) is refused
+// by the copy as by every other read of tiles (read_tile), and nothing is left behind.
+TEST(StoreCopy, ATileWithAnInvertedBoxIsDamage) {
+  pl::test::TempDir dir;
+  const std::string src = dir / "src.db", copy = dir / "copy.db";
+  fill(src);
+  pl::test::RawDb raw(src);
+  ASSERT_EQ(raw.exec("PRAGMA ignore_check_constraints = ON; UPDATE tiles SET min_z = max_z + 1 WHERE version = 4 AND "
+                     "map_id = (SELECT id FROM maps WHERE name = 'campus')"),
+            "");
+  const std::string err = pl::test::error_of([&] { pl::store::copy_store(src, copy); });
+  EXPECT_NE(err.find("the map store is damaged (tiles.min_x and the other bounds have min > max)"), std::string::npos) << err;
+  EXPECT_FALSE(std::filesystem::exists(copy));
+}
 
 // A write the destination refuses late in the copy (PostgreSQL holds no invalid UTF-8, which a
 // SQLite upload log may; the log is the last table copied): the whole copy is rolled back.

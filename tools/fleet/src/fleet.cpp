@@ -351,8 +351,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
       if (!version_)
         return send(Kind::Manifest, "/v1/maps/" + api::url_encode(sh_.o.map));
       // After a refusal, by another URL (another cache entry), as the tile client asks.
-      return send(Kind::Signed, "/v1/maps/" + api::url_encode(sh_.o.map) + "/versions/" + std::to_string(*version_) + "/manifest" +
-                                    (manifest_refusals_ > 0 ? "?refused=" + std::to_string(manifest_refusals_) : ""));
+      return send(Kind::Signed, client::wire::signed_manifest_target(sh_.o.map, *version_, manifest_refusals_));
     }
     const FetchPlan& plan = current_plan(now);
     if (!plan.queries.empty()) {

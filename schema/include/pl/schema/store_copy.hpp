@@ -20,12 +20,14 @@
 // - The source is read from one snapshot (writers on it may go on; the copy is of the moment it
 //   started). Blobs and places pass through a few at a time: a store larger than memory is fine.
 // - Before committing, the destination's rows are read back and their digest (store_digest) must
-//   be the source's, and integrity_ok() must hold; else pl::Error, and nothing is committed.
+//   be the source's, and integrity_ok() must hold (its hashes of the blobs made by the read-back,
+//   which reads each blob once); else pl::Error, and nothing is committed.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 
 namespace pl::store {
@@ -50,5 +52,11 @@ CopyReport copy_store(const std::string& from, const std::string& to, const Copy
 // engine. Two stores with the same digest hold the same maps, versions, history, tiles, blob bytes,
 // places, signatures, tokens and log. Reads the store in one snapshot; a damaged store is an error.
 std::string store_digest(const std::string& db);
+
+// `pl-map check`: the store checked as Store::integrity_ok() checks it and, when it is sound, its
+// store_digest — in one read of every blob (hashed once, for both). An empty optional when the
+// store is damaged (integrity_ok() would be false, or a blob or places does not hash to its hash);
+// other failures (the store out of reach, a value store_digest refuses) are the pl::Error they are.
+std::optional<std::string> checked_digest(const std::string& db);
 
 }  // namespace pl::store
