@@ -38,7 +38,7 @@ std::vector<std::size_t> choose_scans(const pl::Dataset& ds, const std::string& 
   }
   if (first >= scans.size())
     throw Error("--first " + std::to_string(first) + " is not one of the " + std::to_string(scans.size()) + " " + which + " scans");
-  const std::size_t end = std::min(scans.size(), first + count);
+  const std::size_t end = first + std::min(count, scans.size() - first);  // (first + count would wrap: count defaults to the largest size_t)
   return std::vector<std::size_t>(scans.begin() + static_cast<long>(first), scans.begin() + static_cast<long>(end));
 }
 

@@ -26,7 +26,7 @@ PL_MEMBERS(ScanPrepConfig, 6);
 PL_MEMBERS(RoiMapConfig, 2);
 PL_MEMBERS(registration::IcpConfig, 11);
 PL_MEMBERS(FusionConfig, 4);
-PL_MEMBERS(MotionConfig, 24);
+PL_MEMBERS(MotionConfig, 27);
 PL_MEMBERS(IntegrityConfig, 18);
 PL_MEMBERS(PlaceConfig, 3);
 PL_MEMBERS(LidarOdometryConfig, 9);
@@ -107,6 +107,9 @@ void add(Table t, FusionConfig& c) {
 void add(Table t, MotionConfig& c) {
   FIELD(max_speed_mps, "a start with no velocity may be moving this fast, forward or back (3 sigma), m/s");
   FIELD(max_yaw_rate_dps, "... and turning this fast, deg/s");
+  FIELD(sweep_speed_step_mps, "with motion compensation and no velocity yet, the grid the speed is sought on from the sweep's distortion, m/s");
+  FIELD(sweep_yaw_rate_step_dps, "... and the turn rate's grid, deg/s");
+  FIELD(sweep_points, "... and how many of the scan's points those grids register (0: no search)");
   FIELD(speed_sigma_mps, "momentum: the velocity measured from the last scans (1 sigma), m/s");
   FIELD(yaw_rate_sigma_dps, "... its turn rate (1 sigma), deg/s");
   FIELD(accel_sigma_mps2, "how fast the velocity changes since (1 sigma), m/s^2");

@@ -9,7 +9,9 @@
 #include <vector>
 
 #include "pl/client/localizer.hpp"
+#include "pl/common/error.hpp"
 #include "pl/common/pose.hpp"
+#include "pl/registration/motion.hpp"
 #include "map_tiles.hpp"
 #include "scene.hpp"
 
@@ -101,6 +103,69 @@ TEST(Integrity, AStartWithNoVelocityFindsAVehicleAtTwentyFiveMetresASecond) {
   EXPECT_EQ(d.reports.back().basin, pl::client::Basin::Fine);
   EXPECT_EQ(d.reports.back().health, Health::Ok) << d.reports.back().note;
   d.expect_honest();
+}
+
+// A scan as a spinning LiDAR takes it while the sensor moves by `sweep` over one sweep (its own
+// frame): each point as seen from where the sensor was at the point's time within the sweep, timed
+// by azimuth as the localizer times it (the inverse of compensate_motion).
+std::vector<Eigen::Vector3f> swept(std::vector<Eigen::Vector3f> scan, const Eigen::Isometry3d& sweep) {
+  const Eigen::AngleAxisd aa(sweep.linear());
+  for (Eigen::Vector3f& p : scan) {
+    const double s = pl::registration::sweep_share_from_azimuth(p);
+    const Eigen::Isometry3d at_point = Eigen::Translation3d(s * sweep.translation()) * Eigen::AngleAxisd(s * aa.angle(), aa.axis());
+    p = (at_point.inverse() * p.cast<double>()).cast<float>();
+  }
+  return scan;
+}
+
+TEST(Integrity, AStartWithNoVelocityTakesTheSweepsMotionFromItsDistortion) {
+  // Driving at 12 m/s and turning at 20 deg/s, a scan is smeared by 1.2 m and 2 deg over its sweep.
+  // Started from the true pose with no velocity and motion compensation on, the first scan's motion
+  // is unknown; registered as it is, the smear pulls it off; the speed and turn rate whose
+  // compensation fits the map best put it back.
+  const auto surfaces = pl::test::street();
+  const auto tiles = pl::test::map_tiles(surfaces);
+  const Eigen::Isometry3d pose = at(-5.0, 0.5, 4.0);
+  const double speed = 12.0, turn_dps = 20.0;
+  Eigen::Isometry3d sweep = Eigen::Isometry3d::Identity();
+  sweep.translation().x() = 0.1 * speed;
+  sweep.linear() = Eigen::AngleAxisd(0.1 * turn_dps * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const auto scan = swept(pl::test::scan_of(surfaces, pose, 0.6, 60.0, 7), sweep);
+  const auto first_scan = [&](int sweep_points) {
+    LocalizerConfig cfg;
+    cfg.compensate_motion = true;
+    cfg.motion.sweep_points = sweep_points;
+    Localizer loc(cfg, 20.0, [&](const Eigen::Vector2d&, double) { return tiles; });
+    loc.start(pose, 0.0, nullptr);
+    return loc.process_prepared(0.0, scan);
+  };
+  const ScanReport as_is = first_scan(0), searched = first_scan(4000);
+  EXPECT_FALSE(as_is.compensated);
+  EXPECT_DOUBLE_EQ(as_is.sweep_speed_mps, 0.0);
+  ASSERT_TRUE(searched.compensated) << searched.note;
+  EXPECT_NEAR(searched.sweep_speed_mps, speed, 2.5);
+  EXPECT_NEAR(searched.sweep_yaw_rate_dps, turn_dps, 3.0);
+  const double e_as_is = (as_is.icp.pose.translation() - pose.translation()).norm();
+  const double e_searched = (searched.icp.pose.translation() - pose.translation()).norm();
+  EXPECT_LT(e_searched, 0.05);
+  EXPECT_LT(e_searched, 0.5 * e_as_is) << "registered as it is: " << e_as_is << " m off";
+}
+
+TEST(Integrity, ASweepSearchWithNoGridIsRefusedWhenConfigured) {
+  const auto tiles = pl::test::map_tiles(pl::test::street());
+  const auto provider = [&](const Eigen::Vector2d&, double) { return tiles; };
+  for (int k = 0; k < 3; ++k) {
+    LocalizerConfig cfg;
+    if (k == 0) cfg.motion.sweep_speed_step_mps = 0.0;  // a grid step of 0 would never end
+    if (k == 1) cfg.motion.sweep_yaw_rate_step_dps = std::nan("");
+    if (k == 2) cfg.motion.sweep_points = -1;
+    try {
+      Localizer loc(cfg, 20.0, provider);
+      ADD_FAILURE() << "case " << k << " accepted";
+    } catch (const pl::Error& e) {
+      EXPECT_NE(std::string(e.what()).find("sweep"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(Integrity, AStreetThatRepeatsEveryTwoMetresIsNeverOk) {

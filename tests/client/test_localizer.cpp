@@ -288,4 +288,21 @@ TEST(PlLocalize, ServerKilledMidDriveLocalizationContinuesOnTheCache) {
   EXPECT_LT(ape(dir / "again.txt", data + "/drive/poses.txt")["mean"].get<double>(), 0.05);
 }
 
+TEST(PlLocalize, FirstWithoutCountTakesTheRestOfTheDrive) {
+  // --first K alone once asked for the scans from K to K + the largest size_t, which wrapped round
+  // to before K: "cannot create std::vector larger than max_size()".
+  const std::string data = drive_and_map();
+  const pl::test::TempDir dir;
+  const auto r = pl::test::run(pl::test::tool("pl-localize") + " --dataset " + data + "/drive --db " + data +
+                               "/maps.sqlite --map town --beams 16 --odometry encoder --init gt --first 40 --out " + (dir / "poses.tum") + " --kitti-out " +
+                               (dir / "poses.txt"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("20 scans"), std::string::npos) << r.output;
+  const auto odd = pl::test::run(pl::test::tool("pl-localize") + " --dataset " + data + "/drive --db " + data +
+                                 "/maps.sqlite --map town --beams 16 --odometry encoder --init gt --scans odd --first 25 --count 3 --out " + (dir / "odd.tum") + " --kitti-out " +
+                                 (dir / "odd.txt"));
+  ASSERT_EQ(odd.exit_code, 0) << odd.output;
+  EXPECT_NE(odd.output.find("3 scans"), std::string::npos) << odd.output;
+}
+
 }  // namespace
