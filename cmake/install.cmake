@@ -10,7 +10,7 @@ endforeach()
 install(TARGETS ${pl_exported} EXPORT PointLocalizationTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
-install(TARGETS pl-map pl-server pl-localize pl-sim pl-eval pl-dataset RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+install(TARGETS pl-map pl-server pl-localize pl-sim pl-eval pl-dataset pl-fleet RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 
 set(pl_cmake_dir ${CMAKE_INSTALL_LIBDIR}/cmake/PointLocalization)
 install(EXPORT PointLocalizationTargets NAMESPACE PointLocalization:: DESTINATION ${pl_cmake_dir})

@@ -18,6 +18,7 @@
 #include "pl/common/error.hpp"
 #include "pl/schema/detail/sqlite.hpp"
 #include "store_internal.hpp"
+#include "tile_row.hpp"
 
 namespace pl::store {
 
@@ -201,23 +202,7 @@ void require_staged(const Db& db, const std::string& map, std::int64_t map_id,
 // ---- tiles ---------------------------------------------------------------------------------------
 
 
-TileRecord read_tile(const Stmt& st, int first) {
-  Row row(st, "tiles");
-  TileRecord r;
-  r.key = TileKey{static_cast<std::int32_t>(row.integer(first, "tx", kMinKey, kMaxKey)),
-                  static_cast<std::int32_t>(row.integer(first + 1, "ty", kMinKey, kMaxKey))};
-  r.hash = row.hash(first + 2, "hash");
-  r.points = row.integer(first + 3, "points", 0, kMaxInt64);
-  r.bytes = row.integer(first + 4, "bytes", 0, kMaxInt64);
-  r.min_x = row.number(first + 5, "min_x");
-  r.min_y = row.number(first + 6, "min_y");
-  r.min_z = row.number(first + 7, "min_z");
-  r.max_x = row.number(first + 8, "max_x");
-  r.max_y = row.number(first + 9, "max_y");
-  r.max_z = row.number(first + 10, "max_z");
-  if (!(r.min_x <= r.max_x && r.min_y <= r.max_y && r.min_z <= r.max_z)) row.bad("min_x", "and the other bounds have min > max");
-  return r;
-}
+TileRecord read_tile(const Stmt& st, int first) { return tile_row(Row(st, "tiles"), first); }
 
 std::optional<std::string> tile_hash(const Db& db, std::int64_t map_id, std::int64_t version,
                                      const TileKey& key) {

@@ -8,6 +8,7 @@
 #include "pl/common/error.hpp"
 #include "pl/schema/api_rules.hpp"
 #include "store_pg.hpp"
+#include "tile_row.hpp"
 
 namespace pl::store::detail {
 
@@ -164,24 +165,7 @@ void PgStore::require_text(const std::string& s, const char* what) const {
                 " is not UTF-8 text without NUL bytes, which a PostgreSQL map store cannot hold: send it as UTF-8");
 }
 
-TileRecord read_pg_tile(const PgStore& store, const pqxx::row& r, int first) {
-  PgRow row(store, r, "tiles");
-  TileRecord t;
-  t.key = TileKey{static_cast<std::int32_t>(row.integer(first, "tx", INT32_MIN, INT32_MAX)),
-                  static_cast<std::int32_t>(row.integer(first + 1, "ty", INT32_MIN, INT32_MAX))};
-  t.hash = row.hash(first + 2, "hash");
-  t.points = row.integer(first + 3, "points", 0);
-  t.bytes = row.integer(first + 4, "bytes", 0);
-  t.min_x = row.number(first + 5, "min_x");
-  t.min_y = row.number(first + 6, "min_y");
-  t.min_z = row.number(first + 7, "min_z");
-  t.max_x = row.number(first + 8, "max_x");
-  t.max_y = row.number(first + 9, "max_y");
-  t.max_z = row.number(first + 10, "max_z");
-  if (!(t.min_x <= t.max_x && t.min_y <= t.max_y && t.min_z <= t.max_z))
-    row.bad("min_x", "and the other bounds have min > max");
-  return t;
-}
+TileRecord read_pg_tile(const PgStore& store, const pqxx::row& r, int first) { return tile_row(PgRow(store, r, "tiles"), first); }
 
 // ---- tiles ---------------------------------------------------------------------------------------
 

@@ -8,7 +8,9 @@ rm -rf "$work"
 mkdir -p "$work"
 cmake --install "$build" --prefix "$work/prefix" >"$work/install.log"
 test -f "$work/prefix/lib/cmake/PointLocalization/PointLocalizationConfig.cmake"
-test -x "$work/prefix/bin/pl-localize"
+for tool in pl-map pl-server pl-localize pl-sim pl-eval pl-dataset pl-fleet; do
+  test -x "$work/prefix/bin/$tool" || { echo "install: $tool was not installed into $work/prefix/bin" >&2; exit 1; }
+done
 test -f "$work/prefix/include/pl/client/vehicle_localizer.hpp"
 cmake -S "$src/tests/install/consumer" -B "$work/build" -G Ninja -DCMAKE_PREFIX_PATH="$work/prefix" \
   -DCMAKE_CXX_FLAGS="$cxx_flags" -DCMAKE_EXE_LINKER_FLAGS="$link_flags" \
