@@ -17,6 +17,8 @@ namespace pl::client {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
+// The most steps a sweep grid may take from 0 to its maximum (each step is a whole registration).
+constexpr double kMaxSweepGrid = 100.0;
 
 double now_ms() {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -84,9 +86,11 @@ Localizer::Localizer(const LocalizerConfig& cfg, double tile_size, TileProvider 
   if (!tiles_) throw Error("localizer: no tile provider");
   const MotionConfig& m = cfg_.motion;
   if (!(m.sweep_speed_step_mps > 0) || !(m.sweep_yaw_rate_step_dps > 0) || !std::isfinite(m.max_speed_mps) ||
-      !std::isfinite(m.max_yaw_rate_dps) || m.max_speed_mps < 0 || m.max_yaw_rate_dps < 0 || m.sweep_points < 0)
+      !std::isfinite(m.max_yaw_rate_dps) || m.max_speed_mps < 0 || m.max_yaw_rate_dps < 0 || m.sweep_points < 0 ||
+      m.max_speed_mps / m.sweep_speed_step_mps > kMaxSweepGrid || m.max_yaw_rate_dps / m.sweep_yaw_rate_step_dps > kMaxSweepGrid)
     throw Error("localizer: localizer/motion/sweep_speed_step_mps and sweep_yaw_rate_step_dps must be > 0, max_speed_mps and "
-                "max_yaw_rate_dps finite and >= 0, sweep_points >= 0 (0 turns the sweep search off)");
+                "max_yaw_rate_dps finite and >= 0, sweep_points >= 0 (0 turns the sweep search off), and each grid at most " +
+                std::to_string(static_cast<int>(kMaxSweepGrid)) + " steps from 0 to its maximum (a larger step)");
 }
 
 Localizer::~Localizer() = default;
@@ -375,14 +379,16 @@ Eigen::Isometry3d Localizer::sweep_motion(const std::vector<Eigen::Vector3f>& sc
     const registration::IcpResult fit = registration::register_scan(map_->points_map(), moved, guess, cfg_.icp);
     return fit.accepted ? registration::registration_score(fit) : 0.0;
   };
-  // The best of a grid lo + k step (k = 0..n), refined by a parabola through it and its neighbours.
-  const auto best_on = [&](double lo, double step, int n, const std::function<double(double)>& f) {
+  // The best of a grid lo + k step (k = 0..n), refined by a parabola through it and its neighbours;
+  // `none` when no value of the grid registers at all.
+  const auto best_on = [&](double lo, double step, int n, double none, const std::function<double(double)>& f) {
     std::vector<double> s;
     int best = 0;
     for (int k = 0; k <= n; ++k) {
       s.push_back(f(lo + k * step));
       if (s.back() > s[best]) best = k;
     }
+    if (!(s[best] > 0.0)) return none;
     double x = lo + best * step;
     if (best > 0 && best < n) {
       const double denom = s[best - 1] - 2.0 * s[best] + s[best + 1];
@@ -395,9 +401,9 @@ Eigen::Isometry3d Localizer::sweep_motion(const std::vector<Eigen::Vector3f>& sc
   const int vback = static_cast<int>(std::floor(m.max_speed_mps / 3.0 / vs)), vn = vback + static_cast<int>(std::floor(m.max_speed_mps / vs));
   // The turn first (over a sweep it moves far points most), then the speed at that turn, then the
   // turn again at that speed.
-  double w = best_on(-wn * ws, ws, 2 * wn, [&](double x) { return score(0.0, x); });
-  const double v = best_on(-vback * vs, vs, vn, [&](double x) { return score(x, w); });
-  w = best_on(w - ws, ws / 2.0, 4, [&](double x) { return score(v, x); });
+  double w = best_on(-wn * ws, ws, 2 * wn, 0.0, [&](double x) { return score(0.0, x); });
+  const double v = best_on(-vback * vs, vs, vn, 0.0, [&](double x) { return score(x, w); });
+  w = best_on(w - ws, ws / 2.0, 4, w, [&](double x) { return score(v, x); });
   return sweep_of(v, w);
 }
 

@@ -154,11 +154,12 @@ TEST(Integrity, AStartWithNoVelocityTakesTheSweepsMotionFromItsDistortion) {
 TEST(Integrity, ASweepSearchWithNoGridIsRefusedWhenConfigured) {
   const auto tiles = pl::test::map_tiles(pl::test::street());
   const auto provider = [&](const Eigen::Vector2d&, double) { return tiles; };
-  for (int k = 0; k < 3; ++k) {
+  for (int k = 0; k < 4; ++k) {
     LocalizerConfig cfg;
     if (k == 0) cfg.motion.sweep_speed_step_mps = 0.0;  // a grid step of 0 would never end
     if (k == 1) cfg.motion.sweep_yaw_rate_step_dps = std::nan("");
     if (k == 2) cfg.motion.sweep_points = -1;
+    if (k == 3) cfg.motion.sweep_yaw_rate_step_dps = 0.01;  // 6,001 registrations for one scan
     try {
       Localizer loc(cfg, 20.0, provider);
       ADD_FAILURE() << "case " << k << " accepted";
