@@ -412,3 +412,92 @@ TEST(ServerHardening, ClientsHangingUpMidAnswerDoNotStopTheServer) {
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   expect_healthy(server);
 }
+
+// Answers go out with one sendmsg(2) of header and body when the socket takes them, and the rest
+// asynchronously when it does not. A client that pipelines 42 requests (about 6 MB of answers, more
+// than the server's socket buffer), reads nothing for a while, then reads slowly through a small
+// receive buffer gets every byte of each answer in order, on the one kept-alive connection: tiles
+// sent from memory (60 KB) and with sendfile(2) (1 MB), a HEAD answer with the length and no body,
+// and a JSON answer.
+TEST(ServerHardening, AnswersLargerThanTheSocketTakesArriveWholeOnAKeptAliveConnection) {
+  MapFixture f;
+  std::string mid(60u << 10, '\0'), big(1u << 20, '\0');
+  {
+    auto store = pl::store::Store::open(f.db, false);
+    auto v = store.create_version("town", std::nullopt, "tiles of 60 KB and 1 MB");
+    std::mt19937 rng(11);
+    for (auto& c : mid) c = static_cast<char>(rng());
+    for (auto& c : big) c = static_cast<char>(rng());
+    store.put_tile("town", v.number, pl::TileKey{100, 100}, mid, 1, 2000, 2000, 0, 2001, 2001, 1);
+    store.put_tile("town", v.number, pl::TileKey{101, 100}, big, 1, 2020, 2000, 0, 2021, 2001, 1);
+    store.publish("town", v.number);
+  }
+  ServerProcess server(f.db);
+  int fd = socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(fd, 0);
+  int small = 4096;  // the kernel doubles it
+  ASSERT_EQ(setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &small, sizeof(small)), 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(static_cast<std::uint16_t>(server.port()));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
+  struct Asked {
+    std::string method, target;
+    const std::string* expect;  // the body expected (nullptr: checked apart)
+  };
+  std::vector<Asked> asked;
+  // The large tiles first: they fill the server's socket buffer (4 MB at most here), so that the
+  // answers from memory after them meet a full one.
+  for (int i = 0; i < 4; ++i) asked.push_back({"GET", "/v1/maps/town/versions/2/tiles/101/100", &big});
+  for (int i = 0; i < 36; ++i) asked.push_back({"GET", "/v1/maps/town/versions/2/tiles/100/100", &mid});
+  asked.push_back({"HEAD", "/v1/maps/town/versions/2/tiles/100/100", nullptr});
+  asked.push_back({"GET", "/v1/maps/town", nullptr});
+  std::string requests;
+  for (const auto& q : asked) requests += q.method + " " + q.target + " HTTP/1.1\r\nHost: x\r\n\r\n";
+  ASSERT_EQ(send(fd, requests.data(), requests.size(), MSG_NOSIGNAL), static_cast<ssize_t>(requests.size()));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the server meets a full socket
+  std::string in;
+  std::size_t at = 0;  // where the next answer starts in `in`
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  for (std::size_t k = 0; k < asked.size(); ++k) {
+    std::string head;
+    std::size_t need = std::string::npos;
+    while (need == std::string::npos || in.size() < need) {
+      if (need == std::string::npos) {
+        auto end = in.find("\r\n\r\n", at);
+        if (end != std::string::npos) {
+          head = in.substr(at, end + 4 - at);
+          need = end + 4 + (asked[k].method == "HEAD" ? 0 : std::stoul(header_of(head, "Content-Length")));
+          continue;
+        }
+      }
+      ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "answer " << k << ": " << in.size() - at << " bytes after 60 s";
+      pollfd p{fd, POLLIN, 0};
+      if (poll(&p, 1, 100) <= 0) continue;
+      char buf[16384];
+      ssize_t n = recv(fd, buf, sizeof(buf), 0);
+      ASSERT_GT(n, 0) << "answer " << k << ": the server closed the connection";
+      in.append(buf, static_cast<std::size_t>(n));
+    }
+    const std::string body = in.substr(at + head.size(), need - at - head.size());
+    at = need;
+    ASSERT_EQ(status_of(head), 200) << "answer " << k << ": " << head;
+    if (asked[k].expect) {
+      EXPECT_TRUE(body == *asked[k].expect) << "answer " << k << ": " << body.size() << " bytes, not the tile's";
+    } else if (asked[k].method == "HEAD") {
+      EXPECT_EQ(header_of(head, "Content-Length"), std::to_string(mid.size()));
+    } else {
+      EXPECT_EQ(json::parse(body).value("name", ""), "town") << body;
+    }
+  }
+  // Nothing beyond the last answer.
+  pollfd p{fd, POLLIN, 0};
+  if (poll(&p, 1, 200) > 0) {
+    char c;
+    EXPECT_LE(recv(fd, &c, 1, MSG_DONTWAIT), 0) << "bytes beyond the last answer";
+  }
+  EXPECT_EQ(in.size(), at);
+  close(fd);
+  expect_healthy(server);
+}
