@@ -16,12 +16,24 @@ k05_map() {
   k05=$(cd "$k05" && pwd)
   if [[ ! -f "$k05/maps.sqlite" ]]; then
     echo "preparing the map of the even scans in $k05 (once)"
-    rm -f "$k05/maps.sqlite.partial"*
-    "$bin/pl-map" build --dataset "$drive" --poses gt --every 2 --out "$k05/even.pcd" >/dev/null
-    "$bin/pl-map" tile --cloud "$k05/even.pcd" --db "$k05/maps.sqlite.partial" --map k05 >/dev/null
-    "$bin/pl-map" publish --db "$k05/maps.sqlite.partial" --map k05 --version 1 >/dev/null
-    mv "$k05/maps.sqlite.partial" "$k05/maps.sqlite"
   fi
-  "$bin/pl-dataset" poses "$drive" --out "$k05/gt.txt" >/dev/null
-  grep -v '^#' "$k05/gt.txt" | awk 'NR % 2 == 0' >"$k05/gt_odd.txt"
+  k05_even_map "$bin" "$drive" "$k05"
+}
+
+# The protocol's map and truth for any KITTI raw drive folder: the even scans merged at their OXTS
+# poses into DIR/maps.sqlite (map k05, version 1; made once), every scan's truth in DIR/gt.txt and
+# the odd ones' in DIR/gt_odd.txt.
+#   k05_even_map BIN_DIR DRIVE DIR
+k05_even_map() {
+  local bin=$1 d=$2 w=$3
+  mkdir -p "$w"
+  if [[ ! -f "$w/maps.sqlite" ]]; then
+    rm -f "$w/maps.sqlite.partial"*
+    "$bin/pl-map" build --dataset "$d" --poses gt --every 2 --out "$w/even.pcd" >/dev/null
+    "$bin/pl-map" tile --cloud "$w/even.pcd" --db "$w/maps.sqlite.partial" --map k05 >/dev/null
+    "$bin/pl-map" publish --db "$w/maps.sqlite.partial" --map k05 --version 1 >/dev/null
+    mv "$w/maps.sqlite.partial" "$w/maps.sqlite"
+  fi
+  "$bin/pl-dataset" poses "$d" --out "$w/gt.txt" >/dev/null
+  grep -v '^#' "$w/gt.txt" | awk 'NR % 2 == 0' >"$w/gt_odd.txt"
 }

@@ -40,6 +40,10 @@ echo "== localize_rates: drive 0005 at 1-4x speed, LiDAR only, and a kidnapping"
 bash "$(dirname "$0")/localize_rates.sh" "$bin" "$root/build/bench"
 
 echo
+echo "== k05_windows: drive 0005's protocol on windows of the drive (where the 1x error comes from)"
+bash "$(dirname "$0")/k05_windows.sh" "$bin" "$root/build/bench"
+
+echo
 echo "== global_town: --init global (no pose) at 10 places of the simulated town loop, six months later, with traffic"
 bash "$(dirname "$0")/global_town.sh" "$bin" "$root/build/bench"
 
