@@ -17,7 +17,6 @@
 #include <fcntl.h>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <sys/resource.h>
 #include <sys/sendfile.h>
 #include <sys/socket.h>
@@ -447,8 +446,7 @@ struct Server::Impl {
 
     // The rest of the file, as fast as the socket takes it; waits for room without blocking a thread.
     void send_file() {
-      auto sock = stream_.socket().native_handle();
-      set_non_blocking();
+      auto sock = stream_.socket().native_handle();  // non-blocking since send()
       while (file_left_ > 0) {
         ssize_t n = ::sendfile(sock, file_fd_, &file_off_, file_left_);
         if (n > 0) {
