@@ -160,14 +160,21 @@ void add_store_commands(Tool& tool) {
   pl::cli::number(publish, "--version", s->version, "the staged version to publish", pl::cli::at_least(1))->required()->default_str("");
   publish.add_option("--signing-key", s->signing_key, "sign the version's manifest with this Ed25519 private key (PEM, pl-map key-gen) "
                      "as it is published; vehicles holding the public key use only signed versions")->type_name("FILE");
-  store_command(tool, "rollback", "make the previously published version current again", s, [s] {
+  CLI::App& rollback = store_command(tool, "rollback", "publish the previously published version's content again, as a new version "
+                                     "(signed with --signing-key)", s, [s] {
+    std::optional<pl::signing::SigningKey> key;
+    if (!s->signing_key.empty()) key = pl::signing::SigningKey::load(s->signing_key);  // before anything is written
     auto store = s->open();
     maps::need_map(store, s->map);
-    const auto v = store.rollback(s->map);
-    store.log_upload(s->map, v, "rollback", "", "pl-map");
-    std::printf("map %s: rolled back, version %lld is current\n", s->map.c_str(), static_cast<long long>(v));
+    const auto v = maps::rollback_version(store, s->map, key ? &*key : nullptr);
+    const auto info = store.find_version(s->map, v);
+    const std::string how = key ? ", signed by key " + pl::signing::key_id(key->public_key()) : std::string();
+    std::printf("map %s: rolled back, version %lld is current (the content of version %lld)%s\n", s->map.c_str(),
+                static_cast<long long>(v), static_cast<long long>(info->parent.value_or(0)), how.c_str());
     return 0;
   });
+  rollback.add_option("--signing-key", s->signing_key, "sign the new version's manifest with this Ed25519 private key (PEM, pl-map "
+                      "key-gen); vehicles holding the public key use only signed versions")->type_name("FILE");
   store_command(tool, "list", "the maps, or the versions of one map", s, [s] {
     std::fputs((s->map.empty() ? maps::maps_text(s->open()) : maps::versions_text(s->open(), s->map)).c_str(), stdout);
     return 0;

@@ -39,6 +39,16 @@ std::optional<std::string> DiskCache::signed_manifest(const std::string& map, lo
   }
 }
 
+std::optional<long long> DiskCache::newest_signed_version(const std::string& map) {
+  if (!cache_) return std::nullopt;
+  try {
+    return cache_->newest_signed_version(map);
+  } catch (const Error& e) {
+    status_.problem(std::string("disk cache: ") + e.what());
+    return std::nullopt;
+  }
+}
+
 void DiskCache::put_signed_manifest(const std::string& map, long long version, std::string_view body) {
   write([&](TileCache& c) { c.put_signed_manifest(map, version, body); });
 }

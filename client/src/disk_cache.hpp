@@ -37,6 +37,8 @@ class DiskCache {
   // A version's signed manifest as the server sent it (the caller verifies it).
   std::optional<std::string> signed_manifest(const std::string& map, long long version);
   void put_signed_manifest(const std::string& map, long long version, std::string_view body);
+  // The highest version of the map whose signed manifest is kept (the caller verifies it).
+  std::optional<long long> newest_signed_version(const std::string& map);
 
   void put_manifest(const CachedManifest& m);
   void put_tiles(const std::string& map, long long version, const std::vector<CachedTile>& rows);

@@ -271,6 +271,13 @@ std::optional<std::string> TileCache::signed_manifest(const std::string& map, lo
   return st.blob(0);
 }
 
+std::optional<long long> TileCache::newest_signed_version(const std::string& map) const {
+  Stmt st(handle(db_, path_), "SELECT max(version) FROM signed_manifests WHERE map = ?1");
+  st.bind_text(1, map);
+  if (!st.step() || st.is_null(0)) return std::nullopt;
+  return Row(st, "signed_manifests").integer(0, "version");  // a damaged file may hold anything
+}
+
 std::vector<CachedTile> TileCache::tiles(const std::string& map, long long version) const {
   Stmt st(handle(db_, path_), "SELECT tx, ty, hash, points FROM tiles WHERE map = ?1 AND version = ?2 ORDER BY tx, ty");
   st.bind_text(1, map).bind_int64(2, version);

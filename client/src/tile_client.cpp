@@ -105,6 +105,13 @@ struct TileClient::Impl {
   std::optional<long long> places_version;  // the version whose answer is kept
   std::optional<std::string> places_bytes;  // that answer: the bytes, or nothing (it has none)
   std::string signed_by;                    // under mu: the key id of the version in use (with fleet keys)
+  // Under mu. With fleet keys: the highest version of the map whose signed manifest this client has
+  // verified (the newest kept in the disk cache, checked at the first start, then every version
+  // adopted). Unpinned, a current version below it is refused: a cache or network replaying an old
+  // answer cannot take the vehicle back to an older map. (A rollback publishes a new, higher
+  // version with the old content: store::Store::rollback.)
+  long long newest_verified = 0;
+  bool floor_loaded = false;  // the background thread's own: the disk cache's newest was looked at
   std::optional<std::string> signed_places; // under mu: with fleet keys, the places' hash the version's manifest gives (none: it has none)
 
   std::thread thread;
@@ -168,7 +175,42 @@ struct TileClient::Impl {
     rows.reserve(s.tiles.size());
     for (const auto& t : s.tiles) rows.push_back(CachedTile{t.key, t.hash, t.points});
     disk.put_signed_manifest(cfg.map, s.version, body);
+    {
+      std::lock_guard<std::mutex> lock(mu);
+      newest_verified = std::max<long long>(newest_verified, s.version);
+    }
     adopt(m, std::move(rows), signing::key_id(sm.public_key), s.places);
+  }
+
+  // The newest signed manifest the disk cache keeps, verified: where a restarted vehicle's floor
+  // starts. Once per client.
+  long long floor() {
+    if (!floor_loaded) {
+      floor_loaded = true;
+      const auto v = disk.newest_signed_version(cfg.map);
+      const auto body = v ? disk.signed_manifest(cfg.map, *v) : std::nullopt;
+      if (body) {
+        try {
+          wire::verified_manifest(*body, trusted, cfg.map, *v);
+          std::lock_guard<std::mutex> lock(mu);
+          newest_verified = std::max(newest_verified, *v);
+        } catch (const wire::WireError& e) {
+          reports.rejected();
+          reports.problem("disk cache " + cfg.cache_path + ": the signed manifest of map " + cfg.map + " version " + std::to_string(*v) +
+                          " kept there is refused (" + e.what() + "): it sets no floor");
+        }
+      }
+    }
+    std::lock_guard<std::mutex> lock(mu);
+    return newest_verified;
+  }
+
+  void refuse_older(long long offered, long long newest) {
+    reports.rejected();
+    reports.problem("map " + cfg.map + ": the server names version " + std::to_string(offered) + " as the current one, older than version " +
+                    std::to_string(newest) + " whose signed manifest this vehicle has verified: an old answer replayed by a cache or "
+                    "the network, or a map store restored from an older copy. Version " + std::to_string(newest) +
+                    " is used; to take an older version on purpose, pin it (TileClientConfig::version, pl-localize --map-version)");
   }
 
   // The version's signed manifest from the disk cache, verified again (one that does not verify is
@@ -233,19 +275,28 @@ struct TileClient::Impl {
 
   // The same with fleet keys: only a version whose signed manifest verifies (the map's JSON
   // manifest only says which version is current).
+  // Unpinned, never a version below the newest verified one (floor()); a pin is the integrator's
+  // choice and is followed.
   bool become_ready_signed(std::optional<long long> pin) {
     if (pin && adopt_signed_from_disk(*pin)) return true;
+    const long long newest = pin ? 0 : floor();
     if (server.may_ask()) {
       try {
-        const long long version = pin ? *pin : server.manifest(std::nullopt).version;
+        long long version = pin ? *pin : server.manifest(std::nullopt).version;
+        if (version < newest) {
+          refuse_older(version, newest);
+          if (adopt_signed_from_disk(newest)) return true;
+          version = newest;
+        }
         adopt_signed_from_server(version);
         return true;
       } catch (const RequestFailed&) {
       }
     }
     if (!pin) {
+      if (newest > 0 && adopt_signed_from_disk(newest)) return true;
       if (auto m = disk.manifest(cfg.map, std::nullopt))
-        if (adopt_signed_from_disk(m->version)) return true;
+        if (m->version >= newest && adopt_signed_from_disk(m->version)) return true;
     }
     return false;
   }
@@ -612,6 +663,7 @@ TileClientStatus TileClient::status() const {
   s.tile_size = impl_->ready ? impl_->manifest.tile_size : 0;
   if (impl_->ready) s.origin = impl_->manifest.origin;
   s.signed_by = impl_->signed_by;
+  s.newest_verified = impl_->newest_verified;
   s.tiles_in_memory = impl_->memory.count();
   s.bytes_in_memory = impl_->memory.bytes();
   return s;

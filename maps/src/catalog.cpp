@@ -34,22 +34,48 @@ store::MapInfo need_map(const store::Store& s, const std::string& name) {
   return *m;
 }
 
+namespace {
+
+// Signs a staged version's manifest as the store holds it (inside the caller's transaction, just
+// before it is published); returns the upload log's detail.
+std::string sign_staged(store::Store& s, const std::string& map, std::int64_t version, const signing::SigningKey& key) {
+  const std::string text = signing::manifest_text(signing::manifest_of(s, map, version));
+  try {
+    signing::sign_staged_version(s, map, version, key.public_key(), key.sign(text));
+  } catch (const signing::SignatureMismatch&) {
+    throw Error(s.path() + ": map " + map + " version " + std::to_string(version) +
+                " changed while it was being signed (another writer at work): nothing published; publish it again");
+  }
+  return "signed by key " + signing::key_id(key.public_key());
+}
+
+}  // namespace
+
 void publish_version(store::Store& s, const std::string& map, std::int64_t version, const signing::SigningKey* key) {
   store::Store::Transaction tx(s);
-  std::string detail;
-  if (key) {
-    const std::string text = signing::manifest_text(signing::manifest_of(s, map, version));
-    try {
-      signing::sign_staged_version(s, map, version, key->public_key(), key->sign(text));
-    } catch (const signing::SignatureMismatch&) {
-      throw Error(s.path() + ": map " + map + " version " + std::to_string(version) +
-                  " changed while it was being signed (another writer at work): nothing published; publish it again");
-    }
-    detail = "signed by key " + signing::key_id(key->public_key());
-  }
+  const std::string detail = key ? sign_staged(s, map, version, *key) : std::string();
   s.publish(map, version);
   s.log_upload(map, version, "publish", detail, "pl-map");
   tx.commit();
+}
+
+std::int64_t rollback_version(store::Store& s, const std::string& map, const signing::SigningKey* key) {
+  store::Store::Transaction tx(s);
+  // A fleet that checks signatures would refuse an unsigned rollback of a signed map and stay on
+  // the version being rolled back: said before anything is written.
+  const auto current = need_map(s, map).current;
+  if (!key && current && s.signature(map, *current))
+    throw Error(s.path() + ": map " + map + " version " + std::to_string(*current) +
+                " is signed: vehicles with the fleet's keys would refuse an unsigned rollback; give --signing-key (the "
+                "fleet's private key) to sign the new version");
+  std::string detail;
+  const std::int64_t v = s.rollback(map, [&](std::int64_t staged) {
+    if (key) detail = sign_staged(s, map, staged, *key);
+  });
+  const auto restored = s.find_version(map, v)->parent.value();  // the rollback opened it from there
+  s.log_upload(map, v, "rollback", "the content of v" + std::to_string(restored) + (detail.empty() ? "" : ", " + detail), "pl-map");
+  tx.commit();
+  return v;
 }
 
 std::string maps_text(const store::Store& s) {

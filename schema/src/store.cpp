@@ -490,7 +490,7 @@ std::vector<VersionInfo> SqliteStore::list_versions(const std::string& map) cons
 }
 
 bool SqliteStore::publish(const std::string& map, std::int64_t number,
-                          const std::optional<std::optional<std::int64_t>>& only_if_current) {
+                          const std::optional<std::optional<std::int64_t>>& only_if_current, std::optional<std::int64_t> restores) {
   const Db db = conn();
   WriteScope tx(db);  // one IMMEDIATE transaction (a savepoint inside a Transaction)
   std::int64_t map_id = require_map(db, map);
@@ -500,6 +500,14 @@ bool SqliteStore::publish(const std::string& map, std::int64_t number,
                 ": only a staged version can be published");
   auto old = current_version(db, map_id);
   if (only_if_current && *only_if_current != old) return false;  // the write lock is held: no publish can come between
+  std::optional<std::int64_t> step = old;
+  if (restores) {  // a rollback: a further rollback goes where one from the restored version would
+    require_version(db, map, map_id, *restores);
+    Stmt st(db, "SELECT replaces FROM versions WHERE map_id = ?1 AND number = ?2");
+    st.bind_int64(1, map_id).bind_int64(2, *restores);
+    step.reset();
+    if (st.step()) step = Row(st, "versions").opt_integer(0, "replaces", 1, kMaxInt64);
+  }
   // Retire the old one first: the schema allows one published version per map.
   if (old) {
     Stmt(db, "UPDATE versions SET state = 'retired' WHERE map_id = ?1 AND number = ?2")
@@ -512,7 +520,7 @@ bool SqliteStore::publish(const std::string& map, std::int64_t number,
        "WHERE map_id = ?1 AND number = ?2")
       .bind_int64(1, map_id)
       .bind_int64(2, number)
-      .bind_opt_int64(3, old)
+      .bind_opt_int64(3, step)
       .run();
   Stmt(db, "UPDATE maps SET current_version = ?2 WHERE id = ?1")
       .bind_int64(1, map_id)
@@ -522,9 +530,8 @@ bool SqliteStore::publish(const std::string& map, std::int64_t number,
   return true;
 }
 
-std::int64_t SqliteStore::rollback(const std::string& map) {
+std::int64_t SqliteStore::rollback_target(const std::string& map) const {
   const Db db = conn();
-  WriteScope tx(db);
   std::int64_t map_id = require_map(db, map);
   auto cur = current_version(db, map_id);
   if (!cur) throw Error(path_ + ": map " + map + " has no published version to roll back");
@@ -536,24 +543,11 @@ std::int64_t SqliteStore::rollback(const std::string& map) {
   }
   if (!prev)
     throw Error(path_ + ": map " + map + ": version " + num(*cur) +
-                " was the first version published; there is no earlier one to roll back to");
+                " was the first version published, or restores its content: there is no earlier one to roll back to");
   VersionState prev_state = require_version(db, map, map_id, *prev);
   if (prev_state != VersionState::Retired)
     throw Error(path_ + ": map " + map + ": cannot roll back to version " + num(*prev) + ", it is " +
                 state_name(prev_state));
-  Stmt(db, "UPDATE versions SET state = 'retired' WHERE map_id = ?1 AND number = ?2")
-      .bind_int64(1, map_id)
-      .bind_int64(2, *cur)
-      .run();
-  Stmt(db, "UPDATE versions SET state = 'published' WHERE map_id = ?1 AND number = ?2")
-      .bind_int64(1, map_id)
-      .bind_int64(2, *prev)
-      .run();
-  Stmt(db, "UPDATE maps SET current_version = ?2 WHERE id = ?1")
-      .bind_int64(1, map_id)
-      .bind_int64(2, *prev)
-      .run();
-  tx.commit();
   return *prev;
 }
 

@@ -44,7 +44,9 @@ struct VersionRow {
   VersionState state = VersionState::Staged;
   std::string created, note;
   std::optional<std::string> published;  // when first published
-  std::optional<std::int64_t> replaces;  // the version current when it was published (rollback's step)
+  // Rollback's step: the version current when it was published; for a version published by a
+  // rollback, the step of the version whose content it restores (so that rollbacks walk back).
+  std::optional<std::int64_t> replaces;
 };
 
 struct BlobRow {
@@ -135,10 +137,13 @@ class StoreBackend {
   virtual std::optional<VersionInfo> find_version(const std::string& map, std::int64_t number) const = 0;
   virtual std::vector<VersionInfo> list_versions(const std::string& map) const = 0;
   // With `only_if_current`: publishes only while the map's current version is *only_if_current (an
-  // empty optional inside: none published yet); returns false, changing nothing, otherwise.
+  // empty optional inside: none published yet); returns false, changing nothing, otherwise. With
+  // `restores` (a rollback), the new version's `replaces` is that version's, not the old current.
   virtual bool publish(const std::string& map, std::int64_t number,
-                       const std::optional<std::optional<std::int64_t>>& only_if_current) = 0;
-  virtual std::int64_t rollback(const std::string& map) = 0;
+                       const std::optional<std::optional<std::int64_t>>& only_if_current,
+                       std::optional<std::int64_t> restores) = 0;
+  // The retired version a rollback restores: the current one's `replaces`. Throws when there is none.
+  virtual std::int64_t rollback_target(const std::string& map) const = 0;
 
   virtual TileRecord put_tile(const std::string& map, std::int64_t version, const TileKey& key, std::string_view draco_bytes,
                               std::int64_t points, double min_x, double min_y, double min_z, double max_x, double max_y,

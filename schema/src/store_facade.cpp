@@ -81,11 +81,27 @@ std::optional<VersionInfo> Store::find_version(const std::string& map, std::int6
   return impl().find_version(map, number);
 }
 std::vector<VersionInfo> Store::list_versions(const std::string& map) const { return impl().list_versions(map); }
-void Store::publish(const std::string& map, std::int64_t number) { impl().publish(map, number, std::nullopt); }
+void Store::publish(const std::string& map, std::int64_t number) { impl().publish(map, number, std::nullopt, std::nullopt); }
 bool Store::publish_if_current(const std::string& map, std::int64_t number, std::optional<std::int64_t> expected_current) {
-  return impl().publish(map, number, std::optional<std::optional<std::int64_t>>(expected_current));
+  return impl().publish(map, number, std::optional<std::optional<std::int64_t>>(expected_current), std::nullopt);
 }
-std::int64_t Store::rollback(const std::string& map) { return impl().rollback(map); }
+
+std::int64_t Store::rollback_target(const std::string& map) const { return impl().rollback_target(map); }
+
+std::int64_t Store::rollback(const std::string& map, const std::function<void(std::int64_t)>& before_publish) {
+  Transaction tx(*this);
+  const auto current = find_map(map);
+  const std::int64_t target = rollback_target(map);  // throws for an unknown map, or nothing to roll back to
+  const std::int64_t from = current->current.value();
+  const VersionInfo v = create_version(
+      map, target, "rollback of v" + std::to_string(from) + ": the tiles and places of v" + std::to_string(target));
+  if (before_publish) before_publish(v.number);
+  if (!impl().publish(map, v.number, std::optional<std::optional<std::int64_t>>(from), target))
+    throw Error(path() + ": map " + map + ": another version was published while version " + std::to_string(from) +
+                " was being rolled back: nothing rolled back; look at pl-map list, then roll back again if still wanted");
+  tx.commit();
+  return v.number;
+}
 
 TileRecord Store::put_tile(const std::string& map, std::int64_t version, const TileKey& key, std::string_view draco_bytes,
                            std::int64_t points, double min_x, double min_y, double min_z, double max_x, double max_y,

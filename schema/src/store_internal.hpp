@@ -54,8 +54,9 @@ class SqliteStore final : public StoreBackend {
   std::optional<VersionInfo> find_version(const std::string& map, std::int64_t number) const override;
   std::vector<VersionInfo> list_versions(const std::string& map) const override;
   bool publish(const std::string& map, std::int64_t number,
-               const std::optional<std::optional<std::int64_t>>& only_if_current) override;
-  std::int64_t rollback(const std::string& map) override;
+               const std::optional<std::optional<std::int64_t>>& only_if_current,
+               std::optional<std::int64_t> restores) override;
+  std::int64_t rollback_target(const std::string& map) const override;
   TileRecord put_tile(const std::string& map, std::int64_t version, const TileKey& key, std::string_view draco_bytes,
                       std::int64_t points, double min_x, double min_y, double min_z, double max_x, double max_y,
                       double max_z) override;

@@ -253,7 +253,6 @@ const PgStatement kPgStatements[] = {
     {"version_publish",
      "UPDATE versions SET state = 'published', published = statement_timestamp(), replaces = $3 "
      "WHERE map_id = $1 AND number = $2"},
-    {"version_republish", "UPDATE versions SET state = 'published' WHERE map_id = $1 AND number = $2"},
     // Rows only: the copies point at the same blobs.
     {"tiles_copy",
      "INSERT INTO tiles (map_id, version, tx, ty, hash, points, bytes, min_x, min_y, min_z, max_x, max_y, max_z) "
@@ -560,7 +559,8 @@ std::vector<VersionInfo> PgStore::list_versions(const std::string& map) const {
   });
 }
 
-bool PgStore::publish(const std::string& map, std::int64_t number, const std::optional<std::optional<std::int64_t>>& only_if_current) {
+bool PgStore::publish(const std::string& map, std::int64_t number, const std::optional<std::optional<std::int64_t>>& only_if_current,
+                      std::optional<std::int64_t> restores) {
   return atomically([&](Work& w) {
     const std::int64_t map_id = lock_map(w, map);
     VersionState state = require_version(w, map, map_id, number);
@@ -569,16 +569,24 @@ bool PgStore::publish(const std::string& map, std::int64_t number, const std::op
                   ": only a staged version can be published");
     const auto old = current_of(*this, w, map_id);
     if (only_if_current && *only_if_current != old) return false;  // the map's row lock is held: no publish can come between
+    // A rollback: a further rollback goes where one from the restored version would.
+    const std::optional<std::int64_t> step = [&]() -> std::optional<std::int64_t> {
+      if (!restores) return old;
+      require_version(w, map, map_id, *restores);
+      const pqxx::result r = w.exec_prepared("version_replaces", map_id, *restores);
+      if (r.empty()) return std::nullopt;
+      return PgRow(*this, r[0], "versions").opt_integer(0, "replaces", 1);
+    }();
     // Retire the old one first: the schema allows one published version per map.
     if (old) w.exec_prepared("version_retire", map_id, *old);
-    const auto old_param = pg_opt_int(old);
-    w.exec_prepared("version_publish", map_id, number, pg_opt(old_param));
+    const auto step_param = pg_opt_int(step);
+    w.exec_prepared("version_publish", map_id, number, pg_opt(step_param));
     w.exec_prepared("map_set_current", map_id, number);
     return true;
   });
 }
 
-std::int64_t PgStore::rollback(const std::string& map) {
+std::int64_t PgStore::rollback_target(const std::string& map) const {
   return atomically([&](Work& w) {
     const std::int64_t map_id = lock_map(w, map);
     const auto cur = current_of(*this, w, map_id);
@@ -590,14 +598,11 @@ std::int64_t PgStore::rollback(const std::string& map) {
     }
     if (!prev)
       throw Error(name_ + ": map " + map + ": version " + pg_num(*cur) +
-                  " was the first version published; there is no earlier one to roll back to");
+                  " was the first version published, or restores its content: there is no earlier one to roll back to");
     VersionState prev_state = require_version(w, map, map_id, *prev);
     if (prev_state != VersionState::Retired)
       throw Error(name_ + ": map " + map + ": cannot roll back to version " + pg_num(*prev) + ", it is " +
                   state_name(prev_state));
-    w.exec_prepared("version_retire", map_id, *cur);
-    w.exec_prepared("version_republish", map_id, *prev);
-    w.exec_prepared("map_set_current", map_id, *prev);
     return *prev;
   });
 }

@@ -382,6 +382,83 @@ TEST(TileClient, SignedManifestFromTheDiskCacheStartsTheClientOffline) {
   EXPECT_GE(client.status().rejected, 1u);
 }
 
+// A cache (or network) replaying an older answer that names an older signed version as current:
+// a vehicle that has verified a newer version (kept in its disk cache) refuses to go back and stays
+// on the newer one; a pin is followed as asked; the operator's rollback, a new and higher version
+// with the old content, is taken with no refusal.
+TEST(TileClient, AnOlderSignedVersionNamedCurrentIsRefusedAndARollbackIsTaken) {
+  SignedFixture f;
+  {
+    auto store = pl::store::Store::open(f.db, false);
+    store.create_version("town", 1, "v2: the same tiles, signed again");
+  }
+  f.run("publish --db " + f.db + " --map town --version 2 --signing-key " + (f.dir / "fleet.key"));
+  ServerProcess server(f.db);
+  TamperingProxy proxy(server.url());
+  const std::string cache = f.dir / "vehicle.sqlite";
+  auto config = [&](std::optional<long long> pin = std::nullopt) {
+    TileClientConfig c = f.config(proxy.url());
+    c.cache_path = cache;
+    c.version = pin;
+    return c;
+  };
+  {
+    TileClient client(config());
+    ASSERT_TRUE(client.wait_ready(30)) << client.status().last_error;
+    EXPECT_EQ(client.status().version, 2);
+    EXPECT_EQ(client.status().newest_verified, 2);
+    EXPECT_EQ(client.status().rejected, 0u);
+  }
+  // The map's answer now says version 1 is current (a replay of an answer from before v2).
+  std::atomic<int> replayed{0};
+  proxy.set_alter([&](const std::string& target, std::string& body) {
+    if (target != "/v1/maps/town") return;
+    const std::string now = "\"current_version\":2", then = "\"current_version\":1";
+    const auto at = body.find(now);
+    if (at == std::string::npos) return;
+    body.replace(at, now.size(), then);
+    ++replayed;
+  });
+  {
+    TileClient client(config());
+    ASSERT_TRUE(client.wait_ready(30)) << client.status().last_error;
+    const auto s = client.status();
+    EXPECT_GE(replayed.load(), 1);
+    EXPECT_EQ(s.version, 2);
+    EXPECT_EQ(s.newest_verified, 2);
+    EXPECT_GE(s.rejected, 1u);
+    EXPECT_NE(s.last_error.find("names version 1 as the current one, older than version 2"), std::string::npos) << s.last_error;
+    client.set_focus({0, 0}, {0, 0});
+    ASSERT_TRUE(client.wait_for({0, 0}, 25, 30)) << client.status().last_error;
+    EXPECT_EQ(held(client, {0, 0}, 25), within(f.hashes(2), {0, 0}, 25));
+  }
+  // Pinned to version 1 on purpose: taken.
+  {
+    TileClient client(config(1));
+    ASSERT_TRUE(client.wait_ready(30)) << client.status().last_error;
+    EXPECT_EQ(client.status().version, 1);
+    EXPECT_EQ(client.status().rejected, 0u);
+  }
+  // The operator rolls back to version 1's content: version 3, signed; the vehicle takes it.
+  proxy.set_alter(nullptr);
+  f.run("rollback --db " + f.db + " --map town --signing-key " + (f.dir / "fleet.key"));
+  EXPECT_EQ(pl::store::Store::open(f.db, false).find_map("town")->current, 3);
+  ASSERT_TRUE(eventually([&] {  // the server reads the map's row again within 250 ms
+    return HttpClient(server.url()).get("/v1/maps/town").body.find("\"current_version\":3") != std::string::npos;
+  }));
+  {
+    TileClient client(config());
+    ASSERT_TRUE(client.wait_ready(30)) << client.status().last_error;
+    EXPECT_EQ(client.status().version, 3);
+    EXPECT_EQ(client.status().newest_verified, 3);
+    EXPECT_EQ(client.status().rejected, 0u);
+    EXPECT_EQ(client.status().signed_by, pl::signing::key_id(f.fleet[0]));
+    client.set_focus({0, 0}, {0, 0});
+    ASSERT_TRUE(client.wait_for({0, 0}, 25, 30)) << client.status().last_error;
+    EXPECT_EQ(held(client, {0, 0}, 25), within(f.hashes(1), {0, 0}, 25));
+  }
+}
+
 TEST(TileClient, FleetKeysFileThatIsNoKeyFailsAtConstruction) {
   TempDir dir;
   pl::test::write_file(dir / "fleet.pub", "not a key\n");

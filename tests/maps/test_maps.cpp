@@ -100,7 +100,8 @@ TEST(Maps, BuildTileVersionsDiffRollbackFromTheCommandLine) {
   auto diff = pl::test::run(pl_map("diff --db " + db + " --map loop --from 1 --to 2"));
   EXPECT_NE(diff.output.find("0 added, 0 removed, 0 changed"), std::string::npos) << diff.output;
   auto rb = pl::test::run(pl_map("rollback --db " + db + " --map loop"));
-  EXPECT_NE(rb.output.find("version 1 is current"), std::string::npos) << rb.output;
+  EXPECT_NE(rb.output.find("version 3 is current (the content of version 1)"), std::string::npos) << rb.output;
+  EXPECT_EQ(pl::store::Store::open(db, false).find_version("loop", 3)->parent, 1);
   // Bad input says what to do and changes nothing.
   auto wrong = pl::test::run(pl_map("tile --cloud " + (dir / "map.pcd") + " --db " + db + " --map loop --tile-size 25"));
   EXPECT_EQ(wrong.exit_code, 2);
@@ -110,7 +111,7 @@ TEST(Maps, BuildTileVersionsDiffRollbackFromTheCommandLine) {
   EXPECT_NE(bare.output.find("--origin LAT,LON,ALT"), std::string::npos) << bare.output;
   auto pub = pl::test::run(pl_map("publish --db " + db + " --map loop --version 1"));
   EXPECT_EQ(pub.exit_code, 2) << pub.output;
-  EXPECT_EQ(pl::store::Store::open(db, false).find_map("loop")->current.value(), 1);
+  EXPECT_EQ(pl::store::Store::open(db, false).find_map("loop")->current.value(), 3);
 }
 
 TEST(Maps, PushUploadsOnlyWhatTheServerLacks) {
@@ -231,6 +232,34 @@ TEST(Maps, SignedPublishAndPushWithTheFleetKey) {
   EXPECT_TRUE(logged);
   auto remote_info = pl::test::run(pl_map("info --db " + remote + " --map m"));
   EXPECT_NE(remote_info.output.find(": verifies"), std::string::npos) << remote_info.output;
+
+  // A rollback of a signed map: refused unsigned (the fleet would refuse it), nothing written; signed,
+  // a new version with the old content whose signature verifies.
+  {
+    auto s = pl::store::Store::open(local, false);
+    s.create_version("m", std::nullopt, "v2");
+  }
+  ASSERT_EQ(pl::test::run(pl_map("publish --db " + local + " --map m --version 2 --signing-key " + (dir / "fleet.key"))).exit_code, 0);
+  auto unsigned_rb = pl::test::run(pl_map("rollback --db " + local + " --map m"));
+  EXPECT_EQ(unsigned_rb.exit_code, 2);
+  EXPECT_NE(unsigned_rb.output.find("version 2 is signed"), std::string::npos) << unsigned_rb.output;
+  EXPECT_NE(unsigned_rb.output.find("--signing-key"), std::string::npos) << unsigned_rb.output;
+  EXPECT_EQ(pl::store::Store::open(local, false).list_versions("m").size(), 2u);
+  auto signed_rb = pl::test::run(pl_map("rollback --db " + local + " --map m --signing-key " + (dir / "fleet.key")));
+  ASSERT_EQ(signed_rb.exit_code, 0) << signed_rb.output;
+  EXPECT_NE(signed_rb.output.find("version 3 is current (the content of version 1), signed by key " + pl::signing::key_id(fleet[0])),
+            std::string::npos)
+      << signed_rb.output;
+  const auto after = pl::store::Store::open(local, false);
+  const auto sig = after.signature("m", 3);
+  ASSERT_TRUE(sig);
+  EXPECT_TRUE(pl::signing::verify(sig->public_key, pl::signing::manifest_text(pl::signing::manifest_of(after, "m", 3)), sig->signature));
+  ASSERT_EQ(after.list_tiles("m", 3).size(), mine.size());
+  for (std::size_t i = 0; i < mine.size(); ++i) EXPECT_EQ(after.list_tiles("m", 3)[i].hash, mine[i].hash);
+  bool rolled = false;
+  for (const auto& e : after.upload_log("m"))
+    rolled |= e.action == "rollback" && e.version == 3 && e.detail == "the content of v1, signed by key " + pl::signing::key_id(fleet[0]);
+  EXPECT_TRUE(rolled);
 }
 
 // The cloud readers behind pl-map tile: every PCD and PLY the fuzzers found crashing or over-

@@ -365,36 +365,87 @@ TEST_P(StoreTest, VersionTotalsAndExplicitParent) {
   EXPECT_EQ(s.list_versions("m").size(), 3u);
 }
 
-TEST_P(StoreTest, PublishAndRollbackWalkTheHistory) {
+// A rollback publishes a new version holding an older one's content: the current number only grows
+// (vehicles refuse a lower one than they have verified), and repeated rollbacks walk back through
+// the content history, never to a version that was rolled back.
+TEST_P(StoreTest, RollbacksAreNewVersionsThatWalkBackThroughTheHistory) {
   Store s = Store::open(path);
   s.create_map("m", kOrigin, 10, 0.2);
   EXPECT_TRUE(contains(error_of([&] { s.rollback("m"); }), "no published version"));
   for (int i = 1; i <= 3; ++i) {
     s.create_version("m", std::nullopt, "v" + std::to_string(i));
     put_cell(s, "m", i, i, 0, static_cast<std::uint32_t>(i));
+    s.put_places("m", i, "places of v" + std::to_string(i));
     s.publish("m", i);
   }
+  EXPECT_EQ(s.create_version("m", std::nullopt, "staged, never published").number, 4);
+  auto hashes = [&](std::int64_t v) {
+    std::vector<std::string> out;
+    for (const auto& t : s.list_tiles("m", v)) out.push_back(std::to_string(t.key.tx) + ":" + t.hash);
+    return out;
+  };
   EXPECT_EQ(s.find_map("m")->current, 3);
-  EXPECT_EQ(s.rollback("m"), 2);
-  EXPECT_EQ(s.find_map("m")->current, 2);
+  EXPECT_EQ(s.rollback_target("m"), 2);
+  const auto blobs_before = s.list_tiles("m", 2).size();
+  EXPECT_EQ(s.rollback("m"), 5);  // 4 is the staged version above: a rollback takes the next number
+  EXPECT_EQ(s.find_map("m")->current, 5);
+  const auto v5 = s.find_version("m", 5);
+  EXPECT_EQ(v5->state, VersionState::Published);
+  EXPECT_EQ(v5->parent, 2);
+  EXPECT_TRUE(contains(v5->note, "rollback of v3")) << v5->note;
+  EXPECT_EQ(hashes(5), hashes(2));
+  EXPECT_EQ(s.list_tiles("m", 2).size(), blobs_before);
+  EXPECT_EQ(s.places("m", 5), "places of v2");
   EXPECT_EQ(s.find_version("m", 3)->state, VersionState::Retired);
-  EXPECT_EQ(s.find_version("m", 2)->state, VersionState::Published);
+  EXPECT_EQ(s.find_version("m", 2)->state, VersionState::Retired);  // never published again
+  EXPECT_EQ(s.find_version("m", 4)->state, VersionState::Staged);
 
-  // A new publish after a rollback replaces 2; rolling back returns to 2, then 1 (never to 3).
-  s.create_version("m", std::nullopt, "v4");
-  EXPECT_EQ(s.find_version("m", 4)->parent, 2);
-  s.publish("m", 4);
-  EXPECT_EQ(s.rollback("m"), 2);
-  EXPECT_EQ(s.rollback("m"), 1);
-  EXPECT_EQ(s.find_map("m")->current, 1);
+  // A new publish after the rollback: rolling back goes to 5's content (2's), then to 1's, never to 3's.
+  s.create_version("m", std::nullopt, "v6");
+  EXPECT_EQ(s.find_version("m", 6)->parent, 5);
+  put_cell(s, "m", 6, 6, 0, 6);
+  s.publish("m", 6);
+  EXPECT_EQ(s.rollback("m"), 7);
+  EXPECT_EQ(s.find_version("m", 7)->parent, 5);
+  EXPECT_EQ(hashes(7), hashes(2));
+  EXPECT_EQ(s.rollback("m"), 8);
+  EXPECT_EQ(s.find_version("m", 8)->parent, 1);
+  EXPECT_EQ(hashes(8), hashes(1));
+  EXPECT_EQ(s.find_map("m")->current, 8);
   std::string msg = error_of([&] { s.rollback("m"); });
   EXPECT_TRUE(contains(msg, "first version published")) << msg;
-  EXPECT_EQ(s.find_map("m")->current, 1);
+  EXPECT_EQ(s.find_map("m")->current, 8);
+  EXPECT_EQ(s.list_versions("m").size(), 8u);  // the refused rollback left no version behind
 
   int published = 0;
   for (const auto& v : s.list_versions("m")) published += v.state == VersionState::Published;
   EXPECT_EQ(published, 1);
   EXPECT_TRUE(s.integrity_ok());
+}
+
+// What runs before the copy is published runs in the rollback's transaction: when it throws,
+// nothing of the rollback is left.
+TEST_P(StoreTest, ARollbackWhoseSigningFailsLeavesNothing) {
+  Store s = Store::open(path);
+  s.create_map("m", kOrigin, 10, 0.2);
+  for (int i = 1; i <= 2; ++i) {
+    s.create_version("m", std::nullopt, "");
+    put_cell(s, "m", i, i, 0, static_cast<std::uint32_t>(i));
+    s.publish("m", i);
+  }
+  std::int64_t seen = 0;
+  const std::string msg = error_of([&] {
+    s.rollback("m", [&](std::int64_t staged) {
+      seen = staged;
+      EXPECT_EQ(s.find_version("m", staged)->state, VersionState::Staged);
+      throw pl::Error("no key");
+    });
+  });
+  EXPECT_TRUE(contains(msg, "no key")) << msg;
+  EXPECT_EQ(seen, 3);
+  EXPECT_EQ(s.find_map("m")->current, 2);
+  EXPECT_EQ(s.list_versions("m").size(), 2u);
+  EXPECT_EQ(s.rollback("m"), 3);
 }
 
 TEST_P(StoreTest, UnknownMapsAndVersions) {

@@ -141,7 +141,8 @@ Filled fill(const std::string& path) {
   s.create_map("campus", kOrigin, 20.0, 0.2);
   s.create_map("harbour", {-33.86, 151.21, -3.5}, 25.0, 0.1);
   s.create_map("empty", {0, 0, 0}, 10.0, 0.5);
-  // campus: v1 published then retired, v2 retired, v3 published (current), v4 staged; v2 rolled back once.
+  // campus: v1 and v2 published then retired, v3 published unsigned, rolled back by v4 (v2's content),
+  // v5 staged, v6 published and signed (current).
   s.create_version("campus", std::nullopt, "first drive");
   put_cell(s, "campus", 1, 0, 0, 1);
   put_cell(s, "campus", 1, 1, 0, 2);
@@ -156,12 +157,12 @@ Filled fill(const std::string& path) {
   put_cell(s, "campus", 3, 0, 0, 5);                          // replaces a tile: a new blob
   s.put_places("campus", 3, "places of v3");
   s.publish("campus", 3);  // unsigned
-  EXPECT_EQ(s.rollback("campus"), 2);
+  EXPECT_EQ(s.rollback("campus"), 4);
   s.create_version("campus", 2, "from v2, staged");
-  put_cell(s, "campus", 4, 5, 5, 6);
+  put_cell(s, "campus", 5, 5, 5, 6);
   s.create_version("campus", 2, "from v2, published after the rollback");
-  put_cell(s, "campus", 5, 6, 6, 1);  // the same bytes as tile (0, 0) of v1: one blob
-  publish_signed(s, "campus", 5, key);
+  put_cell(s, "campus", 6, 6, 6, 1);  // the same bytes as tile (0, 0) of v1: one blob
+  publish_signed(s, "campus", 6, key);
   // harbour: v1 published (current), v2 staged with places and a tile of its own.
   s.create_version("harbour", std::nullopt, "");
   put_cell(s, "harbour", 1, 10, -10, 7, 4096);
@@ -180,12 +181,13 @@ Filled fill(const std::string& path) {
   s.log_upload("campus", std::nullopt, "upload", "refused: too big", "token 1");
   s.log_upload("nowhere", 7, "publish", "unknown map", "");
   s.log_upload("harbour", 1, "publish", "tabs\tand\nnewlines", "token 3");
-  s.log_upload("campus", 5, "rollback", "", "admin");
+  s.log_upload("campus", 4, "rollback", "", "admin");
   EXPECT_TRUE(s.integrity_ok());
   return f;
 }
 
-// Runs the store's rollbacks until it has none left: the versions it made current, and the error.
+// Runs the store's rollbacks until it has none left: the versions it made current with the version
+// whose content each holds, and the error.
 std::string rollbacks(const std::string& path) {
   Store s = Store::open(path, false);
   std::string out;
@@ -193,7 +195,8 @@ std::string rollbacks(const std::string& path) {
     out += m.name + ":";
     for (int i = 0; i < 6; ++i) {
       try {
-        out += " " + std::to_string(s.rollback(m.name));
+        const auto v = s.rollback(m.name);
+        out += " " + std::to_string(v) + "(" + std::to_string(s.find_version(m.name, v)->parent.value_or(0)) + ")";
       } catch (const pl::Error&) {
         out += " none";
         break;
@@ -235,11 +238,11 @@ TEST(StoreCopy, SqliteToPostgresAndBackIsExact) {
     if (stages.empty() || stages.back() != stage) stages.push_back(stage);
   });
   EXPECT_EQ(report.maps, 3);
-  EXPECT_EQ(report.versions, 7);
+  EXPECT_EQ(report.versions, 8);
   EXPECT_EQ(report.tokens, 3);
   EXPECT_EQ(report.log_entries, 5);
   EXPECT_EQ(report.signatures, 3);
-  EXPECT_EQ(report.places, 6);  // campus 1 to 5 (2, 4 and 5 inherited theirs), harbour 2
+  EXPECT_EQ(report.places, 7);  // campus 1 to 6 (2, 4, 5 and 6 inherited theirs), harbour 2
   EXPECT_EQ(report.places, pl::test::raw_scalar(Backend::Sqlite, src, "SELECT count(*) FROM places"));
   EXPECT_EQ(report.tiles, pl::test::raw_scalar(Backend::Sqlite, src, "SELECT count(*) FROM tiles"));
   EXPECT_EQ(report.blobs, pl::test::raw_scalar(Backend::Sqlite, src, "SELECT count(*) FROM blobs"));
@@ -295,7 +298,7 @@ TEST(StoreCopy, SqliteToPostgresAndBackIsExact) {
   for (const std::string& path : {pg, back}) {
     const Store s = Store::open(path, false);
     int verified = 0;
-    for (const std::int64_t v : {1, 2, 5}) {
+    for (const std::int64_t v : {1, 2, 6}) {
       const auto sig = s.signature("campus", v);
       ASSERT_TRUE(sig) << v;
       EXPECT_TRUE(pl::signing::verify(sig->public_key, pl::signing::manifest_text(pl::signing::manifest_of(s, "campus", v)),
@@ -305,10 +308,12 @@ TEST(StoreCopy, SqliteToPostgresAndBackIsExact) {
     }
     EXPECT_EQ(verified, 3);
     EXPECT_FALSE(s.signature("campus", 3));
+    EXPECT_FALSE(s.signature("campus", 4));  // a rollback's copy never inherits a signature
   }
-  // Rollbacks walk the same history on each, to the same end: campus 5 -> 2 -> 1 -> none.
+  // Rollbacks walk the same history on each, to the same end: campus 6 -> v7 with v4's content
+  // (which was v2's) -> v8 with v1's -> none.
   const std::string walked = rollbacks(src);
-  EXPECT_EQ(walked, "campus: 2 1 none\nempty: none\nharbour: none\n");
+  EXPECT_EQ(walked, "campus: 7(4) 8(1) none\nempty: none\nharbour: none\n");
   EXPECT_EQ(rollbacks(pg), walked);
   EXPECT_EQ(rollbacks(back), walked);
 
@@ -420,7 +425,7 @@ TEST(StoreCopy, ATileWithAnInvertedBoxIsDamage) {
   const std::string src = dir / "src.db", copy = dir / "copy.db";
   fill(src);
   pl::test::RawDb raw(src);
-  ASSERT_EQ(raw.exec("PRAGMA ignore_check_constraints = ON; UPDATE tiles SET min_z = max_z + 1 WHERE version = 4 AND "
+  ASSERT_EQ(raw.exec("PRAGMA ignore_check_constraints = ON; UPDATE tiles SET min_z = max_z + 1 WHERE version = 5 AND "
                      "map_id = (SELECT id FROM maps WHERE name = 'campus')"),
             "");
   const std::string err = pl::test::error_of([&] { pl::store::copy_store(src, copy); });

@@ -78,6 +78,8 @@ class TileCache {
   // verifies it (a body altered on disk fails its signature).
   void put_signed_manifest(const std::string& map, long long version, std::string_view body);
   std::optional<std::string> signed_manifest(const std::string& map, long long version) const;
+  // The highest version of the map with a signed manifest kept (not verified here).
+  std::optional<long long> newest_signed_version(const std::string& map) const;
 
  private:
   std::string path_;

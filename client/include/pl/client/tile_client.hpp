@@ -25,6 +25,11 @@
 //   (.../manifest?refused=N: another HTTP cache entry, past a poisoned one); tile bytes that do
 //   not match are refused, asked for once more by another URL (GET .../versions/{v}/tiles/{tx}/{ty}:
 //   another HTTP cache entry), then left alone for 30 s while the other tiles come. Each refusal counts in status().rejected.
+//   Unpinned, the client never starts on a version below the highest one whose signed manifest it
+//   has verified (status().newest_verified, kept across starts by the disk cache): a current
+//   version below it is refused (counted, said in last_error) and that highest one is used. The map
+//   service's rollbacks publish new, higher versions, so only a replayed answer or a store restored
+//   from an older copy goes back; a pinned version (cfg.version, pin_version) is taken as asked.
 #pragma once
 
 #include <Eigen/Core>
@@ -81,6 +86,8 @@ struct TileClientStatus {
   std::size_t rejected = 0;   // answers refused and never used: tile bytes that did not match their hash,
                               // signed manifests that did not verify (altered in a cache or on the network)
   std::string signed_by;      // with fleet_keys: the id of the key the version in use is signed with
+  long long newest_verified = 0;  // with fleet_keys: the highest version of the map whose signed manifest
+                                  // this vehicle has verified (this run or kept in its disk cache)
   std::size_t evicted = 0;    // tiles dropped from memory to stay within memory_mb
   std::string last_error;     // the last problem, naming what to do; empty when fine (cleared by
                               // the next successful request)

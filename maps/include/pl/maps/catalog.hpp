@@ -28,6 +28,10 @@ std::string version_text(const store::Store& s, const std::string& map, std::int
 // key, the version's manifest (pl/schema/signed_manifest.hpp) is signed and stored with it in that
 // transaction, read again under the write lock to be sure it is the one published.
 void publish_version(store::Store& s, const std::string& map, std::int64_t version, const signing::SigningKey* key);
+// Rolls a map back (store::Store::rollback: a new version with the content of the one the current
+// version replaced, so vehicles see the number grow) in one transaction with its upload log entry,
+// signed with the key when one is given, as publish_version signs. Returns the new version.
+std::int64_t rollback_version(store::Store& s, const std::string& map, const signing::SigningKey* key);
 
 struct VersionDiff {
   std::size_t added = 0, removed = 0, changed = 0, unchanged = 0;

@@ -17,8 +17,10 @@
 //   unknown map NAME". An unknown version of a known map is handled the same way. log_upload
 //   accepts any map name (attempts on unknown maps are worth logging).
 // - Version numbers are 1, 2, ... per map. A version is staged, then published (it becomes the
-//   map's current version; the previously current one is retired), and may later be retired by a
-//   newer publish or a rollback, and published again by a rollback. Only staged versions accept
+//   map's current version; the previously current one is retired), and is retired by the next
+//   publish. A retired version is never published again: a rollback publishes a new version with
+//   the old one's content, so the current version's number only ever grows (vehicles refuse to go
+//   back to a lower number than they have verified). Only staged versions accept
 //   writes of tiles and places. Readers use MapInfo::current; staged tiles are only seen by asking
 //   for that version number explicitly.
 // - Timestamps are UTC ISO 8601 with milliseconds and 'Z' ("2024-05-01T10:11:12.345Z").
@@ -36,6 +38,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -143,12 +146,17 @@ class Store {
   // publishing versions opened from the same current one, exactly one wins, whatever the
   // connections or machines. Throws as publish does.
   bool publish_if_current(const std::string& map, std::int64_t number, std::optional<std::int64_t> expected_current);
-  // Makes the previously published version current again (the current one is retired); returns it.
-  // "Previously published" is the version that was current when the current one was published, so
-  // repeated rollbacks walk back through the publish history (a rolled-back version is never made
-  // current again by a rollback). Throws pl::Error when the map has no current version or the
-  // current one was its first publish.
-  std::int64_t rollback(const std::string& map);
+  // Rolls the map back: publishes a new version (opened by create_version from rollback_target,
+  // so it holds that version's tiles and places, blobs shared; never its signature) and returns
+  // its number. "Rolled back to" is the version that was current when the current one was
+  // published, and a further rollback goes where one from that version would, so repeated
+  // rollbacks walk back through the publish history's content. `before_publish(number)` runs on
+  // the staged copy just before it is published, in the same transaction (pl-map signs it there).
+  // Throws pl::Error when the map has no current version, the current one was its first publish,
+  // or another version was published meanwhile; then nothing is left behind.
+  std::int64_t rollback(const std::string& map, const std::function<void(std::int64_t)>& before_publish = {});
+  // The retired version whose content a rollback restores now; throws as rollback does.
+  std::int64_t rollback_target(const std::string& map) const;
 
   // Tiles of a staged version (throws pl::Error for a published or retired one). put_tile stores the
   // blob once per content hash and is idempotent; the record's hash/bytes are computed here.
