@@ -197,6 +197,7 @@ struct ScanReport {
   double sweep_yaw_rate_dps = 0.0;     // the turn rate,
   double sweep_search_ms = 0.0;        // and the time that search took
   bool fused_lidar = false;            // the registration was accepted and fused
+  bool vertical_from_map = false;      // not fused, but its height, roll and pitch were taken (plausible, within the gate)
   bool gated = false;                  // rejected by the gate on the prediction's uncertainty (a jump)
   bool plausible = false;              // the absolute checks passed (share on a map surface, residual)
   bool consistent = false;             // the relative checks passed (against the recent verified scans)
@@ -206,6 +207,8 @@ struct ScanReport {
   bool after_ambiguity = false;        // within IntegrityConfig::ambiguity_hold scans of an ambiguous one
   bool resolved = false;               // a perturbed seed found a better minimum, which was taken
   double alternative_m = 0;            // distance to the best distinct alternative (0: none)
+  Eigen::Isometry3d alternative = Eigen::Isometry3d::Identity();  // that alternative's pose (when alternative_m > 0)
+  bool disambiguated = false;          // ambiguous, but the prediction's gate holds the solution and not the alternative
   double registration_sigma_m = 0;     // the registration's horizontal position sigma, inflated
   double basin_spread_m = 0;           // how far probes either side of the solution ended from it
   double protection_m = 0;             // bound on the horizontal position error
