@@ -42,6 +42,9 @@ bash "$(dirname "$0")/localize_rates.sh" "$bin" "$root/build/bench"
 echo
 echo "== k05_windows: drive 0005's protocol on windows of the drive (where the 1x error comes from)"
 bash "$(dirname "$0")/k05_windows.sh" "$bin" "$root/build/bench"
+echo
+echo "== k05_stress: drive 0005 with a narrower field of view, other beam counts, faster, and starts given off the truth"
+bash "$(dirname "$0")/k05_stress.sh" "$bin" "$root/build/bench"
 
 echo
 echo "== global_town: --init global (no pose) at 10 places of the simulated town loop, six months later, with traffic"
