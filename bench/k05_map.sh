@@ -37,3 +37,14 @@ k05_even_map() {
   "$bin/pl-dataset" poses "$d" --out "$w/gt.txt" >/dev/null
   grep -v '^#' "$w/gt.txt" | awk 'NR % 2 == 0' >"$w/gt_odd.txt"
 }
+
+# The rate benchmarks on the protocol: k05_map, then rates_run.sh's functions (run, rate_phases,
+# summarize) writing to WORK/k05/SUBDIR; the caller sets bin.
+#   k05_rates NAME BIN_DIR WORK_DIR SUBDIR  -> returns 1 (after saying so) without the data
+k05_rates() {
+  k05_map "$1" "$2" "$3" || return 1
+  mkdir -p "$k05/$4"
+  export PL_NO_PROGRESS=1 OMP_NUM_THREADS=1
+  rates_drive=$drive rates_db=$k05/maps.sqlite rates_map=k05 rates_out=$k05/$4
+  source "$(dirname "${BASH_SOURCE[0]}")/rates_run.sh"
+}

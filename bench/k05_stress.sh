@@ -11,11 +11,7 @@ set -euo pipefail
 bin=${1:?usage: k05_stress.sh BIN_DIR WORK_DIR}
 work=${2:?usage: k05_stress.sh BIN_DIR WORK_DIR}
 source "$(dirname "$0")/k05_map.sh"
-k05_map k05_stress "$bin" "$work" || exit 0
-mkdir -p "$k05/stress"
-export PL_NO_PROGRESS=1 OMP_NUM_THREADS=1
-rates_drive=$drive rates_db=$k05/maps.sqlite rates_map=k05 rates_out=$k05/stress
-source "$(dirname "$0")/rates_run.sh"
+k05_rates k05_stress "$bin" "$work" stress || exit 0
 gt=$k05/gt_odd.txt
 
 echo "| run | scans | APE mean | median | max | > 0.5 m | of them ok | ok / degraded / lost | error > PL | PL median | ms median (odometry + registration + checks) |"

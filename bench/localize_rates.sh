@@ -15,12 +15,7 @@ set -euo pipefail
 bin=${1:?usage: localize_rates.sh BIN_DIR WORK_DIR}
 work=${2:?usage: localize_rates.sh BIN_DIR WORK_DIR}
 source "$(dirname "$0")/k05_map.sh"
-k05_map localize_rates "$bin" "$work" || exit 0
-mkdir -p "$k05/rates"
-export PL_NO_PROGRESS=1 OMP_NUM_THREADS=1
-
-rates_drive=$drive rates_db=$k05/maps.sqlite rates_map=k05 rates_out=$k05/rates
-source "$(dirname "$0")/rates_run.sh"
+k05_rates localize_rates "$bin" "$work" rates || exit 0
 
 echo "| run | scans | APE mean | median | max | > 0.5 m | of them ok | ok / degraded / lost | error > PL | PL median | ms median (odometry + registration + checks) |"
 echo "|---|---|---|---|---|---|---|---|---|---|---|"
