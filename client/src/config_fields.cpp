@@ -27,7 +27,7 @@ PL_MEMBERS(RoiMapConfig, 2);
 PL_MEMBERS(registration::IcpConfig, 11);
 PL_MEMBERS(FusionConfig, 4);
 PL_MEMBERS(MotionConfig, 27);
-PL_MEMBERS(IntegrityConfig, 18);
+PL_MEMBERS(IntegrityConfig, 19);
 PL_MEMBERS(PlaceConfig, 3);
 PL_MEMBERS(LidarOdometryConfig, 9);
 PL_MEMBERS(LocalizerConfig, 15);
@@ -155,6 +155,7 @@ void add(Table t, IntegrityConfig& c) {
   FIELD(map_error_m, "the protection level's allowance for the map's own error, m");
   FIELD(sigmas, "the protection level's multiple of the registration's position sigma");
   FIELD(independent_pairs, "the residuals are taken as if only this many pairs were independent (inflates the sigma)");
+  FIELD(alert_limit_m, "a scan whose protection level exceeds this is not ok (degraded), m");
 }
 
 void add(Table t, PlaceConfig& c) {

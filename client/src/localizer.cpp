@@ -757,9 +757,10 @@ void Localizer::fuse(ScanReport& r) {
   if (lost_) {
     r.health = Health::Lost;
     if (r.note.empty()) r.note = "too many scans not fused";
-  } else if (!take || !r.integrity || r.after_ambiguity || r.map_outdated) {
+  } else if (!take || !r.integrity || r.after_ambiguity || r.map_outdated || r.protection_m > c.alert_limit_m) {
     r.health = Health::Degraded;
-    if (r.note.empty()) r.note = r.map_outdated ? "map looks outdated" : "not verified";
+    if (r.note.empty())
+      r.note = r.map_outdated ? "map looks outdated" : r.protection_m > c.alert_limit_m ? "protection level above the alert limit" : "not verified";
   }
 }
 

@@ -261,6 +261,33 @@ TEST(Integrity, ScansNotFusedTakeTheHeightOfTheGroundUnderThePrediction) {
   EXPECT_GE(vertical, 2);
 }
 
+// A scan whose own bound exceeds the alert limit is not ok, whatever its checks said: the same
+// street, the same scans, the same poses, with the limit below the bounds the scans carry.
+TEST(Integrity, AScanWhoseBoundExceedsTheAlertLimitIsNotOk) {
+  const auto surfaces = pl::test::street();
+  const auto tiles = pl::test::map_tiles(surfaces);
+  std::vector<Eigen::Isometry3d> poses;
+  for (int i = 0; i < 8; ++i) poses.push_back(at(-10.0 + 1.0 * i));
+  auto run = [&](double alert_limit_m) {
+    LocalizerConfig cfg;
+    cfg.integrity.alert_limit_m = alert_limit_m;
+    Localizer loc(cfg, 20.0, [&](const Eigen::Vector2d&, double) { return tiles; });
+    return drive(loc, surfaces, poses, poses.front());
+  };
+  const Drive usual = run(0.5), strict = run(0.1);
+  int ok = 0;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    EXPECT_TRUE(usual.reports[i].fused.isApprox(strict.reports[i].fused)) << "scan " << i << ": the limit changes only the health";
+    if (usual.reports[i].health != Health::Ok) continue;
+    ++ok;
+    EXPECT_GT(usual.reports[i].protection_m, 0.1);
+    EXPECT_LT(usual.reports[i].protection_m, 0.5);
+    EXPECT_EQ(strict.reports[i].health, Health::Degraded) << "scan " << i;
+    EXPECT_EQ(strict.reports[i].note, "protection level above the alert limit") << "scan " << i;
+  }
+  EXPECT_GE(ok, 3);
+}
+
 TEST(Integrity, AKidnappingIsReportedAndTheVehicleFoundAgain) {
   const auto surfaces = pl::test::street();
   const auto tiles = pl::test::map_tiles(surfaces);
