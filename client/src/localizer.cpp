@@ -601,10 +601,10 @@ void Localizer::fuse(ScanReport& r) {
   const Uncertainty& u = r.uncertainty;
 
   // The gate: the correction within 3 sigma of the prediction (plus a floor), axis by axis.
-  const Eigen::Isometry3d delta = r.predicted.inverse() * r.icp.pose;
   const double dyaw = turn_between(r.predicted, r.icp.pose);
   // A relocalization by the map's places looks at every heading: its heading is not gated.
   const bool any_heading = relocalizing_ && r.place_proposals > 0;
+  // The gate's position half (along and across the prediction's heading).
   auto within_gate = [&](const Eigen::Isometry3d& pose) {
     const Eigen::Isometry3d d = r.predicted.inverse() * pose;
     return std::abs(d.translation().x()) <= 3.0 * u.along + m.gate_floor_m && std::abs(d.translation().y()) <= 3.0 * u.across + m.gate_floor_m;
@@ -615,9 +615,7 @@ void Localizer::fuse(ScanReport& r) {
   // found the vehicle 31 m from a coasting prediction whose 3 sigma was 17 m, was gated, and the
   // coasting ran on to 90 m).
   const bool gate = global_ || (relocalizing_ && r.basin == Basin::Search && r.verified) ||
-                    (std::abs(delta.translation().x()) <= 3.0 * u.along + m.gate_floor_m &&
-                    std::abs(delta.translation().y()) <= 3.0 * u.across + m.gate_floor_m &&
-                    (any_heading || dyaw <= 3.0 * u.yaw + m.gate_floor_deg * kDeg));
+                    (within_gate(r.icp.pose) && (any_heading || dyaw <= 3.0 * u.yaw + m.gate_floor_deg * kDeg));
   r.map_outdated = r.icp.accepted && (1.0 - r.icp.inlier_share) > cfg_.outdated_share;
   // From an uncertain prediction (a coarse basin or a search) only a verified result is fused: that is
   // where wrong minima are. An ambiguous one from a coarse basin is fused when the prediction tells

@@ -112,6 +112,9 @@ struct TileClient::Impl {
   // version with the old content: store::Store::rollback.)
   long long newest_verified = 0;
   bool floor_loaded = false;  // the background thread's own: the disk cache's newest was looked at
+  // The background thread's own: floor()'s verified manifest and its body, kept until the start has
+  // adopted a version, so adopting the floor version does not read and verify it again.
+  std::optional<std::pair<signing::SignedManifest, std::string>> floor_manifest;
   std::optional<std::string> signed_places; // under mu: with fleet keys, the places' hash the version's manifest gives (none: it has none)
 
   std::thread thread;
@@ -164,6 +167,7 @@ struct TileClient::Impl {
   // Makes a verified signed manifest the pinned version, its tiles the whole index; keeps its body
   // in the disk cache for a start with the server down.
   void adopt_signed(const signing::SignedManifest& sm, const std::string& body) {
+    floor_manifest.reset();  // a version is adopted: what floor() kept is no longer needed
     const signing::Manifest& s = sm.manifest;
     CachedManifest m;
     m.map = cfg.map;
@@ -191,7 +195,7 @@ struct TileClient::Impl {
       const auto body = v ? disk.signed_manifest(cfg.map, *v) : std::nullopt;
       if (body) {
         try {
-          wire::verified_manifest(*body, trusted, cfg.map, *v);
+          floor_manifest.emplace(wire::verified_manifest(*body, trusted, cfg.map, *v), std::move(*body));
           std::lock_guard<std::mutex> lock(mu);
           newest_verified = std::max(newest_verified, *v);
         } catch (const wire::WireError& e) {
@@ -216,6 +220,12 @@ struct TileClient::Impl {
   // The version's signed manifest from the disk cache, verified again (one that does not verify is
   // reported and left: the server's is fetched instead).
   bool adopt_signed_from_disk(long long version) {
+    if (floor_manifest && floor_manifest->first.manifest.version == version) {
+      const auto kept = std::move(*floor_manifest);
+      floor_manifest.reset();
+      adopt_signed(kept.first, kept.second);
+      return true;
+    }
     auto body = disk.signed_manifest(cfg.map, version);
     if (!body) return false;
     try {
