@@ -110,6 +110,13 @@ std::string setting_problem(const std::string& text) {
     // "--set X takes a number, got ..." names the setting already; an unknown name points at the list.
     return known ? std::string("--set ") + e.what() : std::string("--set: ") + e.what() + "; pl-localize --list-settings lists them all";
   }
+  // Its range (a setting against another, such as min_range_m below max_range_m, is checked when
+  // the localizer is made, with every --set applied).
+  for (const auto& f : pl::client::config_fields(scratch))
+    if (f.name == name) {
+      const std::string problem = pl::client::config_field_range_problem(f);
+      if (!problem.empty()) return "--set " + problem;
+    }
   return "";
 }
 

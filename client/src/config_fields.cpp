@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cmath>
+#include <initializer_list>
 #include <limits>
 #include <type_traits>
 
@@ -324,6 +326,74 @@ void parse_whole(const ConfigField& field, const std::string& text, Int& out) {
 }
 
 }  // namespace
+
+std::vector<ConfigField> config_fields(LocalizerConfig& cfg) {
+  std::vector<ConfigField> fields;
+  fields.reserve(140);
+  add(Table(fields, "localizer/"), cfg);
+  return fields;
+}
+
+namespace {
+
+// The ranges of the localizer's settings, by the setting's own name (the last part of its path: a
+// name means the same in every struct it appears in). Every number is finite and >= 0; these are
+// the stricter ones.
+bool named(const std::string& leaf, std::initializer_list<const char*> names) {
+  return std::any_of(names.begin(), names.end(), [&](const char* n) { return leaf == n; });
+}
+
+// What `leaf` = `v` breaks, or nothing.
+std::string out_of_range(const std::string& path, const std::string& leaf, double v) {
+  if (!std::isfinite(v)) return "must be a finite number";
+  if (v < 0) return "must be >= 0";
+  const bool axis = path.find("/odometry_sigma/") != std::string::npos || path.find("/lidar_sigma/") != std::string::npos;
+  // Scales, divisors, extents and counts that nothing works without.
+  if ((axis || named(leaf, {"kernel_m", "kernel_start_m", "max_pair_m", "cell_m", "converged_m", "converged_rad", "sigmas",
+                            "independent_pairs", "alert_limit_m", "roi_radius_m", "max_range_m", "fov_deg", "normal_radius_m",
+                            "sweep_s", "max_iterations", "momentum_window", "momentum_plane_s", "reference_scans", "scans",
+                            "probe_iterations", "lost_after", "speed_sigma_mps", "yaw_rate_sigma_dps", "odometry_sigma_m",
+                            "odometry_sigma_deg", "fix_floor_m", "fix_floor_deg"})) &&
+      !(v > 0))
+    return "must be > 0";
+  if (named(leaf, {"min_share", "min_inlier_share", "share_drop", "outdated_share", "odometry_share"}) && v > 1)
+    return "is a share: from 0 to 1";
+  if (leaf == "ambiguity_ratio" && !(v > 0 && v <= 1)) return "is a share: > 0 and at most 1";
+  if (named(leaf, {"max_boost", "unsettled_factor", "rms_rise"}) && v < 1) return "is a factor: at least 1";
+  if (leaf == "fov_deg" && v > 360) return "is at most 360";
+  return {};
+}
+
+}  // namespace
+
+std::string config_field_range_problem(const ConfigField& f) {
+  if (f.name.rfind("localizer/", 0) != 0) return {};
+  double v = 0;
+  if (auto* d = std::get_if<double*>(&f.value))
+    v = **d;
+  else if (auto* i = std::get_if<int*>(&f.value))
+    v = **i;
+  else if (auto* n = std::get_if<std::size_t*>(&f.value))
+    v = static_cast<double>(**n);
+  else
+    return {};
+  const std::string why = out_of_range(f.name, f.name.substr(f.name.rfind('/') + 1), v);
+  if (why.empty()) return {};
+  return f.name + " " + why + ", got " + config_field_text(f) + " (" + f.help + ")";
+}
+
+void check_localizer_config(const LocalizerConfig& cfg) {
+  LocalizerConfig copy = cfg;  // the table points into a config it may write; this one is only read
+  for (const ConfigField& f : config_fields(copy)) {
+    const std::string problem = config_field_range_problem(f);
+    if (!problem.empty())
+      throw Error("localizer setting " + problem + "; set it with pl-localize --set NAME=VALUE, the ROS node's parameter of that "
+                  "name, or LocalizerConfig in code");
+  }
+  if (!(cfg.scan.min_range_m < cfg.scan.max_range_m))
+    throw Error("localizer settings localizer/scan/min_range_m (" + std::to_string(cfg.scan.min_range_m) +
+                ") must be below localizer/scan/max_range_m (" + std::to_string(cfg.scan.max_range_m) + ")");
+}
 
 std::vector<ConfigField> config_fields(VehicleLocalizerConfig& cfg) {
   std::vector<ConfigField> fields;

@@ -8,6 +8,7 @@
 #include <functional>
 #include <limits>
 
+#include "pl/client/config_fields.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/pose.hpp"
 #include "pl/common/stats.hpp"
@@ -84,6 +85,7 @@ const char* basin_name(Basin b) {
 Localizer::Localizer(const LocalizerConfig& cfg, double tile_size, TileProvider tiles)
     : cfg_(cfg), tile_size_(tile_size), tiles_(std::move(tiles)), fusion_(cfg.fusion), odometry_(cfg.odometry) {
   if (!tiles_) throw Error("localizer: no tile provider");
+  check_localizer_config(cfg_);
   const MotionConfig& m = cfg_.motion;
   if (!(m.sweep_speed_step_mps > 0) || !(m.sweep_yaw_rate_step_dps > 0) || !std::isfinite(m.max_speed_mps) ||
       !std::isfinite(m.max_yaw_rate_dps) || m.max_speed_mps < 0 || m.max_yaw_rate_dps < 0 || m.sweep_points < 0 ||

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -17,6 +18,7 @@
 
 #include "member_count.hpp"
 #include "pl/client/config_fields.hpp"
+#include "pl/client/localizer.hpp"
 #include "pl/common/error.hpp"
 #include "test_util.hpp"
 
@@ -301,6 +303,88 @@ TEST(ConfigFields, RefusesValuesThatDoNotParseNamingTheType) {
   EXPECT_EQ(cfg.localizer.icp.max_iterations, VehicleLocalizerConfig().localizer.icp.max_iterations);
 }
 
+// The localizer's settings are range-checked by name: the defaults pass; every number of
+// LocalizerConfig set to -1 (and every real one to NaN) is refused naming that setting; the
+// stricter rules name theirs; a Localizer is not made from a config out of range.
+TEST(ConfigFields, LocalizerSettingsOutOfRangeAreRefusedByName) {
+  EXPECT_NO_THROW(pl::client::check_localizer_config(pl::client::LocalizerConfig{}));
+  std::size_t numbers = 0;
+  const std::size_t count = [] {
+    pl::client::LocalizerConfig c;
+    return pl::client::config_fields(c).size();
+  }();
+  for (std::size_t k = 0; k < count; ++k) {
+    for (const char* bad : {"-1", "nan"}) {
+      pl::client::LocalizerConfig c;
+      const ConfigField f = pl::client::config_fields(c)[k];
+      if (f.value.index() == 2 || f.value.index() == 4) continue;  // bools and text have no range
+      if (std::string(bad) == "nan") {
+        if (auto* d = std::get_if<double*>(&f.value))
+          **d = std::nan("");
+        else
+          continue;
+      } else if (f.value.index() == 3) {
+        continue;  // std::size_t cannot hold -1
+      } else {
+        pl::client::set_config_field(f, bad);
+      }
+      ++numbers;
+      try {
+        pl::client::check_localizer_config(c);
+        ADD_FAILURE() << f.name << " = " << bad << " passed the check";
+      } catch (const pl::Error& e) {
+        EXPECT_EQ(std::string(e.what()).rfind("localizer setting " + f.name + " must be", 0), 0u) << e.what();
+      }
+    }
+  }
+  EXPECT_GT(numbers, 150u);  // every number of the localizer's 100+ settings, -1 and NaN
+
+  struct Case {
+    std::string name, value, expected;
+  };
+  const std::vector<Case> cases = {
+      {"localizer/integrity/alert_limit_m", "0", "must be > 0, got 0"},
+      {"localizer/icp/kernel_m", "0", "must be > 0, got 0"},
+      {"localizer/fusion/lidar_sigma/yaw", "0", "must be > 0, got 0"},
+      {"localizer/integrity/min_share", "1.5", "is a share: from 0 to 1, got 1.5"},
+      {"localizer/integrity/ambiguity_ratio", "0", "is a share: > 0 and at most 1, got 0"},
+      {"localizer/icp/max_boost", "0.5", "is a factor: at least 1, got 0.5"},
+      {"localizer/scan/fov_deg", "400", "is at most 360, got 400"},
+      {"localizer/odometry/icp/max_iterations", "0", "must be > 0, got 0"},
+  };
+  for (const auto& c : cases) {
+    VehicleLocalizerConfig cfg;
+    pl::client::set_config_field(cfg, c.name, c.value);
+    try {
+      pl::client::check_localizer_config(cfg.localizer);
+      ADD_FAILURE() << c.name << " = " << c.value << " passed the check";
+    } catch (const pl::Error& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("localizer setting " + c.name + " " + c.expected + " (", 0), 0u) << e.what();
+    }
+    // The same words for the one setting alone (pl-localize --set says them before any work).
+    for (const auto& f : pl::client::config_fields(cfg))
+      if (f.name == c.name) {
+        EXPECT_EQ(pl::client::config_field_range_problem(f).rfind(c.name + " " + c.expected, 0), 0u);
+      }
+  }
+  // A setting against another.
+  pl::client::LocalizerConfig ranges;
+  ranges.scan.min_range_m = 90.0;
+  EXPECT_THROW(pl::client::check_localizer_config(ranges), pl::Error);
+  // Zero where zero means "off" stays allowed.
+  pl::client::LocalizerConfig off;
+  off.scan.voxel_m = 0.0;
+  off.map.thin_m = 0.0;
+  off.integrity.seeds = 0;
+  off.motion.sweep_points = 0;
+  EXPECT_NO_THROW(pl::client::check_localizer_config(off));
+  // The localizer checks its config when made.
+  pl::client::LocalizerConfig bad;
+  bad.integrity.alert_limit_m = -1.0;
+  EXPECT_THROW(pl::client::Localizer(bad, 50.0, [](const Eigen::Vector2d&, double) { return std::vector<pl::client::MapTile>{}; }),
+               pl::Error);
+}
+
 // pl-localize --set: checked while parsing, before any work, with the library's message.
 TEST(ConfigFieldsCli, PlLocalizeSetRefusesBadSettingsBeforeAnyWork) {
   pl::test::TempDir dir;
@@ -319,6 +403,9 @@ TEST(ConfigFieldsCli, PlLocalizeSetRefusesBadSettingsBeforeAnyWork) {
       // What pl-localize sets itself is refused, naming the option to use.
       {"localizer/scan/beams=16", "--set localizer/scan/beams: pl-localize sets it from --beams; use that instead"},
       {"tiles/server=http://x:1", "--set tiles/server: pl-localize sets it from --server; use that instead"},
+      // Out of its range.
+      {"localizer/integrity/alert_limit_m=-1",
+       "--set localizer/integrity/alert_limit_m must be >= 0, got -1 (a scan whose protection level exceeds this is not ok"},
   };
   for (const auto& c : cases) {
     const auto r = pl::test::run(base + " --set " + c.set);

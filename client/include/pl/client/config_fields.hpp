@@ -22,7 +22,8 @@
 // itself from its options and the drive (--list-settings marks them).
 //
 // Setting a value parses it and nothing more: ranges are the consumer's to check (the localizer
-// and the tile client check what they must when constructed).
+// checks every setting of its own with check_localizer_config when constructed; the tile client
+// checks what it must).
 #pragma once
 
 #include <cstddef>
@@ -42,6 +43,18 @@ struct ConfigField {
 
 // Every setting of `cfg`, in the order of the structs' members; the pointers are into `cfg`.
 std::vector<ConfigField> config_fields(VehicleLocalizerConfig& cfg);
+// The localizer's part alone, named as above ("localizer/icp/kernel_m").
+std::vector<ConfigField> config_fields(LocalizerConfig& cfg);
+
+// The localizer's settings in range: every number finite and >= 0, scales and counts that are
+// divided by or iterated over > 0, shares at most 1, factors at least 1, the field of view at most
+// 360 deg, min_range_m below max_range_m. Throws pl::Error naming the first setting out of range by
+// its path (what --set and a ROS node's parameters call it), its value and what it takes. The
+// Localizer checks its config with it when constructed.
+void check_localizer_config(const LocalizerConfig& cfg);
+// One setting's range (the rules above; settings outside localizer/ have none here): "" when in
+// range, else "NAME must be > 0, got -1 (what it does)".
+std::string config_field_range_problem(const ConfigField& field);
 
 // Parses `text` into the setting `name`. Numbers: finite, in C notation ("0.5", "1e-3"); whole
 // numbers: no fraction, within the member's type; bools: true/false, 1/0, on/off, yes/no; strings:
