@@ -14,6 +14,7 @@
 #include <optional>
 #include <thread>
 
+#include "pl/client/config_fields.hpp"
 #include "pl/client/store_tiles.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/pose.hpp"
@@ -241,6 +242,7 @@ VehicleLocalizer::VehicleLocalizer(const VehicleLocalizerConfig& cfg) : impl_(st
   if (!(cfg.lookahead_s >= 0) || !(cfg.start_wait_s >= 0) || !(cfg.ready_timeout_s >= 0))
     throw Error("VehicleLocalizer: lookahead_s, start_wait_s and ready_timeout_s must not be negative");
   if (cfg.max_odometry_samples < 2) throw Error("VehicleLocalizer: max_odometry_samples must be at least 2");
+  check_localizer_config(cfg.localizer);  // before the map is opened: a setting's mistake is no map's
   if (!cfg.store_path.empty()) {
     m.store = std::make_unique<StoreTiles>(cfg.store_path, cfg.tiles.map, cfg.tiles.version.value_or(0));
     m.tile_size = m.store->tile_size();

@@ -242,6 +242,8 @@ struct LocalizerNode::Impl {
         ++from_params;
       }
     }
+    // Out of range is a mistake in the parameters, not a map to wait for: refused at start, naming it.
+    client::check_localizer_config(cfg.localizer);
     ROS_INFO("pl_localizer: map %s from %s; %d localizer settings from parameters; start: %s", cfg.tiles.map.c_str(),
              server.empty() ? store.c_str() : server.c_str(), from_params, init.c_str());
     if (initial_pose) pending_start = std::make_pair(*initial_pose, initial_search);

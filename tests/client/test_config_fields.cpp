@@ -383,6 +383,18 @@ TEST(ConfigFields, LocalizerSettingsOutOfRangeAreRefusedByName) {
   bad.integrity.alert_limit_m = -1.0;
   EXPECT_THROW(pl::client::Localizer(bad, 50.0, [](const Eigen::Vector2d&, double) { return std::vector<pl::client::MapTile>{}; }),
                pl::Error);
+  // And the vehicle localizer before it opens the map: the setting is named, not a missing map.
+  VehicleLocalizerConfig vehicle;
+  vehicle.tiles.server = "http://127.0.0.1:1";
+  vehicle.tiles.map = "m";
+  vehicle.ready_timeout_s = 0.0;
+  vehicle.localizer.icp.kernel_m = 0.0;
+  try {
+    pl::client::VehicleLocalizer l(vehicle);
+    ADD_FAILURE() << "a kernel of 0 m was taken";
+  } catch (const pl::Error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("localizer setting localizer/icp/kernel_m must be > 0, got 0", 0), 0u) << e.what();
+  }
 }
 
 // pl-localize --set: checked while parsing, before any work, with the library's message.
