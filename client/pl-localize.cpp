@@ -102,22 +102,19 @@ std::string setting_problem(const std::string& text) {
   if (const char* owner = owner_of_setting(name))
     return "--set " + name + ": pl-localize sets it from " + owner + "; use that instead";
   pl::client::VehicleLocalizerConfig scratch;
-  bool known = false;
-  for (const auto& f : pl::client::config_fields(scratch)) known = known || f.name == name;
+  const auto fields = pl::client::config_fields(scratch);
+  const auto field = std::find_if(fields.begin(), fields.end(), [&](const auto& f) { return f.name == name; });
   try {
     pl::client::set_config_field(scratch, name, text.substr(eq + 1));
   } catch (const Error& e) {
     // "--set X takes a number, got ..." names the setting already; an unknown name points at the list.
-    return known ? std::string("--set ") + e.what() : std::string("--set: ") + e.what() + "; pl-localize --list-settings lists them all";
+    return field != fields.end() ? std::string("--set ") + e.what()
+                                 : std::string("--set: ") + e.what() + "; pl-localize --list-settings lists them all";
   }
   // Its range (a setting against another, such as min_range_m below max_range_m, is checked when
   // the localizer is made, with every --set applied).
-  for (const auto& f : pl::client::config_fields(scratch))
-    if (f.name == name) {
-      const std::string problem = pl::client::config_field_range_problem(f);
-      if (!problem.empty()) return "--set " + problem;
-    }
-  return "";
+  const std::string problem = pl::client::config_field_range_problem(*field);
+  return problem.empty() ? "" : "--set " + problem;
 }
 
 void apply_settings(pl::client::VehicleLocalizerConfig& cfg, const std::vector<std::string>& settings) {

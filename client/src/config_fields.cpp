@@ -353,7 +353,8 @@ std::string out_of_range(const std::string& path, const std::string& leaf, doubl
                             "independent_pairs", "alert_limit_m", "roi_radius_m", "max_range_m", "fov_deg", "normal_radius_m",
                             "sweep_s", "max_iterations", "momentum_window", "momentum_plane_s", "reference_scans", "scans",
                             "probe_iterations", "lost_after", "speed_sigma_mps", "yaw_rate_sigma_dps", "odometry_sigma_m",
-                            "odometry_sigma_deg", "fix_floor_m", "fix_floor_deg"})) &&
+                            "odometry_sigma_deg", "fix_floor_m", "fix_floor_deg", "sweep_speed_step_mps",
+                            "sweep_yaw_rate_step_dps"})) &&
       !(v > 0))
     return "must be > 0";
   if (named(leaf, {"min_share", "min_inlier_share", "share_drop", "outdated_share", "odometry_share"}) && v > 1)

@@ -86,12 +86,11 @@ Localizer::Localizer(const LocalizerConfig& cfg, double tile_size, TileProvider 
     : cfg_(cfg), tile_size_(tile_size), tiles_(std::move(tiles)), fusion_(cfg.fusion), odometry_(cfg.odometry) {
   if (!tiles_) throw Error("localizer: no tile provider");
   check_localizer_config(cfg_);
+  // Each setting's own range is checked above (the grid steps > 0 among them); here the two together.
   const MotionConfig& m = cfg_.motion;
-  if (!(m.sweep_speed_step_mps > 0) || !(m.sweep_yaw_rate_step_dps > 0) || !std::isfinite(m.max_speed_mps) ||
-      !std::isfinite(m.max_yaw_rate_dps) || m.max_speed_mps < 0 || m.max_yaw_rate_dps < 0 || m.sweep_points < 0 ||
-      m.max_speed_mps / m.sweep_speed_step_mps > kMaxSweepGrid || m.max_yaw_rate_dps / m.sweep_yaw_rate_step_dps > kMaxSweepGrid)
-    throw Error("localizer: localizer/motion/sweep_speed_step_mps and sweep_yaw_rate_step_dps must be > 0, max_speed_mps and "
-                "max_yaw_rate_dps finite and >= 0, sweep_points >= 0 (0 turns the sweep search off), and each grid at most " +
+  if (m.max_speed_mps / m.sweep_speed_step_mps > kMaxSweepGrid || m.max_yaw_rate_dps / m.sweep_yaw_rate_step_dps > kMaxSweepGrid)
+    throw Error("localizer: the sweep search's grids (localizer/motion/max_speed_mps over sweep_speed_step_mps, max_yaw_rate_dps "
+                "over sweep_yaw_rate_step_dps) must each be at most " +
                 std::to_string(static_cast<int>(kMaxSweepGrid)) + " steps from 0 to its maximum (a larger step)");
 }
 

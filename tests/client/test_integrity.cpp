@@ -24,6 +24,15 @@ using pl::client::LocalizerConfig;
 using pl::client::ScanReport;
 using pl::test::Surface;
 
+// The config of the tests about finding the vehicle on pl::test::street(). Its west end is long
+// plain walls: the probes of the minimum's flatness end 0.3-0.5 m from the solution, and the bounds
+// of correct scans reach 0.5-0.7 m; so the alert limit is 1 m here (it has its own test).
+LocalizerConfig finding_config() {
+  LocalizerConfig cfg;
+  cfg.integrity.alert_limit_m = 1.0;
+  return cfg;
+}
+
 // A street whose only structure along it repeats every `period` metres: ground, two plain walls
 // and posts in line on both sides. Any pose a whole period away explains a scan as well.
 std::vector<Surface> periodic_street(double period) {
@@ -88,11 +97,7 @@ Eigen::Isometry3d at(double x, double y = 0.0, double yaw_deg = 0.0) { return pl
 TEST(Integrity, AStartWithNoVelocityFindsAVehicleAtTwentyFiveMetresASecond) {
   const auto surfaces = pl::test::street();
   const auto tiles = pl::test::map_tiles(surfaces);
-  LocalizerConfig cfg;
-  // The street's west end is long plain walls: the probes of the minimum's flatness end 0.3-0.5 m
-  // from it, and the bounds of correct scans reach 0.5-0.7 m. This test is about finding the
-  // vehicle; the alert limit has its own test.
-  cfg.integrity.alert_limit_m = 1.0;
+  LocalizerConfig cfg = finding_config();
   Localizer loc(cfg, 20.0, [&](const Eigen::Vector2d&, double) { return tiles; });
   std::vector<Eigen::Isometry3d> poses;
   for (int i = 0; i < 8; ++i) poses.push_back(at(-30.0 + 2.5 * i, 0.2 * i, 1.0 * i));  // 25 m/s, turning gently
@@ -295,11 +300,7 @@ TEST(Integrity, AScanWhoseBoundExceedsTheAlertLimitIsNotOk) {
 TEST(Integrity, AKidnappingIsReportedAndTheVehicleFoundAgain) {
   const auto surfaces = pl::test::street();
   const auto tiles = pl::test::map_tiles(surfaces);
-  LocalizerConfig cfg;
-  // The street's west end is long plain walls: the probes of the minimum's flatness end 0.3-0.5 m
-  // from it, and the bounds of correct scans reach 0.5-0.7 m. This test is about finding the
-  // vehicle; the alert limit has its own test.
-  cfg.integrity.alert_limit_m = 1.0;
+  LocalizerConfig cfg = finding_config();
   cfg.motion.relocalize_m = 30.0;  // the search round the last pose (smaller than the default: test time)
   cfg.motion.max_seeds = 900;
   Localizer loc(cfg, 20.0, [&](const Eigen::Vector2d&, double) { return tiles; });
@@ -318,11 +319,7 @@ TEST(Integrity, AVehicleCarriedIntoARougherPlaceIsFoundThoughItFitsWorseThanBefo
   // they are right: holding them to those scans would refuse every one and leave the vehicle lost.
   const auto surfaces = pl::test::street();
   const auto tiles = pl::test::map_tiles(surfaces);
-  LocalizerConfig cfg;
-  // The street's west end is long plain walls: the probes of the minimum's flatness end 0.3-0.5 m
-  // from it, and the bounds of correct scans reach 0.5-0.7 m. This test is about finding the
-  // vehicle; the alert limit has its own test.
-  cfg.integrity.alert_limit_m = 1.0;
+  LocalizerConfig cfg = finding_config();
   cfg.motion.relocalize_m = 30.0;
   cfg.motion.max_seeds = 900;
   Localizer loc(cfg, 20.0, [&](const Eigen::Vector2d&, double) { return tiles; });
