@@ -11,9 +11,14 @@
 
 namespace pl::client {
 
+// What an answer refused was: a refusal stands (is last_error again after unrelated requests succeed)
+// until what it refused is had another way: a version adopted, a tile fetched, places fetched.
+enum class Refused { manifest, tile, places };
+
 class ClientStatus {
  public:
-  // The last problem, naming what to do (cleared by the next successful request).
+  // The last problem, naming what to do (cleared by the next successful request, back to a standing
+  // refusal if there is one).
   void problem(const std::string& message) {
     std::lock_guard<std::mutex> lock(mu_);
     st_.last_error = message;
@@ -25,7 +30,7 @@ class ClientStatus {
   void request_succeeded() {
     std::lock_guard<std::mutex> lock(mu_);
     st_.online = true;
-    st_.last_error.clear();
+    st_.last_error = standing();
   }
   void request_failed(const std::string& message) {
     std::lock_guard<std::mutex> lock(mu_);
@@ -38,13 +43,27 @@ class ClientStatus {
     ++st_.corrupt;
     st_.last_error = message;
   }
-  void rejected() {  // an answer refused: bytes not matching their hash, a signature not verifying
+  // An answer refused (bytes not matching their hash, a signature not verifying, an older version
+  // named current): counted, and `message` stands until what was refused is had another way.
+  void refused(Refused what, const std::string& message) {
     std::lock_guard<std::mutex> lock(mu_);
     ++st_.rejected;
+    refusal_[static_cast<int>(what)] = message;
+    st_.last_error = message;
   }
+  // An answer refused once, said until the next successful request (a server naming an older
+  // version as current: the newer one is used, and the server asked again when next it is).
+  void refused(const std::string& message) {
+    std::lock_guard<std::mutex> lock(mu_);
+    ++st_.rejected;
+    st_.last_error = message;
+  }
+  void version_adopted() { settled(Refused::manifest); }
+  void places_fetched() { settled(Refused::places); }
   void tile_fetched() {
     std::lock_guard<std::mutex> lock(mu_);
     ++st_.fetched;
+    settle_locked(Refused::tile);
   }
   void tile_from_disk() {
     std::lock_guard<std::mutex> lock(mu_);
@@ -62,8 +81,26 @@ class ClientStatus {
   }
 
  private:
+  void settled(Refused what) {
+    std::lock_guard<std::mutex> lock(mu_);
+    settle_locked(what);
+  }
+  void settle_locked(Refused what) {
+    std::string& r = refusal_[static_cast<int>(what)];
+    if (r.empty()) return;
+    if (st_.last_error == r) st_.last_error = std::string();
+    r.clear();
+    if (st_.last_error.empty()) st_.last_error = standing();
+  }
+  std::string standing() const {  // the first standing refusal (a version's before a tile's), or none
+    for (const auto& r : refusal_)
+      if (!r.empty()) return r;
+    return std::string();
+  }
+
   mutable std::mutex mu_;
   TileClientStatus st_;
+  std::string refusal_[3];  // by Refused
 };
 
 }  // namespace pl::client

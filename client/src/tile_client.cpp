@@ -159,6 +159,7 @@ struct TileClient::Impl {
     signed_by = key;
     signed_places = places;
     ready = true;
+    reports.version_adopted();
     changed.notify_all();
   }
 
@@ -199,8 +200,7 @@ struct TileClient::Impl {
           std::lock_guard<std::mutex> lock(mu);
           newest_verified = std::max(newest_verified, *v);
         } catch (const wire::WireError& e) {
-          reports.rejected();
-          reports.problem("disk cache " + cfg.cache_path + ": the signed manifest of map " + cfg.map + " version " + std::to_string(*v) +
+          reports.refused(Refused::manifest, "disk cache " + cfg.cache_path + ": the signed manifest of map " + cfg.map + " version " + std::to_string(*v) +
                           " kept there is refused (" + e.what() + "): it sets no floor");
         }
       }
@@ -210,8 +210,7 @@ struct TileClient::Impl {
   }
 
   void refuse_older(long long offered, long long newest) {
-    reports.rejected();
-    reports.problem("map " + cfg.map + ": the server names version " + std::to_string(offered) + " as the current one, older than version " +
+    reports.refused("map " + cfg.map + ": the server names version " + std::to_string(offered) + " as the current one, older than version " +
                     std::to_string(newest) + " whose signed manifest this vehicle has verified: an old answer replayed by a cache or "
                     "the network, or a map store restored from an older copy. Version " + std::to_string(newest) +
                     " is used; to take an older version on purpose, pin it (TileClientConfig::version, pl-localize --map-version)");
@@ -232,8 +231,7 @@ struct TileClient::Impl {
       adopt_signed(wire::verified_manifest(*body, trusted, cfg.map, version), *body);
       return true;
     } catch (const wire::WireError& e) {
-      reports.rejected();
-      reports.problem("disk cache " + cfg.cache_path + ": the signed manifest of map " + cfg.map + " version " + std::to_string(version) +
+      reports.refused(Refused::manifest, "disk cache " + cfg.cache_path + ": the signed manifest of map " + cfg.map + " version " + std::to_string(version) +
                       " kept there is refused (" + e.what() + "): fetching it again");
       return false;
     }
@@ -652,12 +650,13 @@ std::optional<std::string> TileClient::places(double timeout_s) {
     std::optional<std::string> got;
     if (m.trusted.empty() || signed_hash) got = fetch_places(m.cfg, version, left);  // (a signed version without places has none)
     if (got && !m.trusted.empty() && store::content_hash(*got) != *signed_hash) {
-      m.reports.rejected();
-      throw Error("the places of map " + m.cfg.map + " version " + std::to_string(version) + " refused: their SHA-256 is not the " +
+      m.reports.refused(Refused::places, "the places of map " + m.cfg.map + " version " + std::to_string(version) + " refused: their SHA-256 is not the " +
                   *signed_hash + " the version's signed manifest gives (altered in a cache or on the network?); ask again later");
+      return std::nullopt;
     }
     m.places_version = version;
     m.places_bytes = std::move(got);
+    m.reports.places_fetched();
   } catch (const Error& e) {
     m.reports.problem(e.what());
     return std::nullopt;

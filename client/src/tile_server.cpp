@@ -86,8 +86,9 @@ std::pair<signing::SignedManifest, std::string> TileServer::signed_manifest(long
   } catch (const wire::WireError& e) {
     ++manifest_refusals_;
     last_rejected_ = true;
-    status_.rejected();
-    failed(about + " refused: " + e.what() + "; not using the version, keeping the tiles in use");
+    const std::string message = about + " refused: " + e.what() + "; not using the version, keeping the tiles in use";
+    status_.refused(Refused::manifest, message);
+    failed(message);
   }
 }
 
@@ -121,8 +122,9 @@ TileServer::Blob TileServer::blob(const CachedTile& t, long long version, bool b
     return Blob{std::move(res.body), std::move(cloud)};
   } catch (const wire::WireError& e) {
     last_rejected_ = true;
-    status_.rejected();
-    failed(about + " refused: " + e.what() + "; never used" + (by_key ? ", left for a while" : ", asking for it by its key next"));
+    const std::string message = about + " refused: " + e.what() + "; never used" + (by_key ? ", left for a while" : ", asking for it by its key next");
+    status_.refused(Refused::tile, message);
+    failed(message);
   } catch (const Error& e) {
     throw UndecodableTile(e.what());
   }

@@ -232,9 +232,14 @@ TEST(TileClient, AlteredManifestIsRefusedAndTheVersionNotUsedUntilAGoodOneComes)
   });
   TileClient client(f.config(proxy.url()));
   EXPECT_FALSE(client.wait_ready(1.5));
-  auto s = client.status();
-  EXPECT_GE(s.rejected, 1u);
-  EXPECT_NE(s.last_error.find("does not verify"), std::string::npos) << s.last_error;
+  // The refusal stands while the client asks again: every look, between the retries' successful
+  // requests for the current version too, says why no version is used.
+  ASSERT_TRUE(eventually([&] { return client.status().rejected >= 2; })) << client.status().last_error;
+  for (int i = 0; i < 200; ++i) {
+    const auto s = client.status();
+    ASSERT_NE(s.last_error.find("does not verify"), std::string::npos) << "look " << i << ": " << s.last_error;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
   EXPECT_TRUE(client.tiles_near({0, 0}, 50).empty());
   // The cache is fixed: the next try takes the version.
   proxy.set_alter(nullptr);

@@ -90,7 +90,8 @@ struct TileClientStatus {
                                   // this vehicle has verified (this run or kept in its disk cache)
   std::size_t evicted = 0;    // tiles dropped from memory to stay within memory_mb
   std::string last_error;     // the last problem, naming what to do; empty when fine (cleared by
-                              // the next successful request)
+                              // the next successful request, except a refusal: that stands until a
+                              // version is adopted, the tile fetched or the places fetched)
 };
 
 class TileClient {
