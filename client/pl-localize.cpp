@@ -216,6 +216,9 @@ int main(int argc, char** argv) {
   app.add_flag("--insecure-http", cfg.tiles.insecure_http, "allow plain http:// to another machine (the map and the token in clear)");
   app.add_option("--fleet-keys", cfg.tiles.fleet_keys, "PEM file of the fleet's Ed25519 public key(s) (pl-map key-gen): use only map "
                  "versions signed with one of them, and each tile only with the hash the signed manifest gives")->type_name("FILE");
+  app.add_option("--timestamp-keys", cfg.tiles.timestamp_keys, "PEM file of the map service's timestamp public key(s) (pl-server "
+                 "--timestamp-key; with --fleet-keys): start only on the version a fresh signed statement names current, or on the "
+                 "newest one this vehicle has verified")->type_name("FILE");
   app.add_flag("--realtime", realtime, "pace the replay at the drive's clock");
   // Every other setting by name (pl/client/config_fields.hpp, the table a ROS node's parameters use).
   std::vector<std::string> settings;

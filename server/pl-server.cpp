@@ -105,6 +105,12 @@ int main(int argc, char** argv) {
   std::vector<std::string> fleet_key_files;
   app.add_option("--fleet-key", fleet_key_files, "a PEM file of the fleet's Ed25519 public keys (pl-map key-gen), repeatable: "
                  "publishes must then be signed by one of these keys (pl-map push, with the private key)")->type_name("FILE");
+  std::string timestamp_key_file;
+  app.add_option("--timestamp-key", timestamp_key_file, "an Ed25519 private key (pl-map key-gen; every replica the same): GET "
+                 "/v1/maps/{map}/current then answers the map's current version signed with it, so that vehicles given its public key "
+                 "tell a fresh answer from one a cache or the network holds back")->type_name("FILE");
+  pl::cli::number(app, "--timestamp-lifetime", cfg.api.timestamp_lifetime_s, "seconds a signed current version stays valid: how long a "
+                  "held-back answer can hide a newer version", pl::cli::between(10, 86400));
   pl::cli::number(app, "--cache-mb", cache_mb, "memory for tiles served often, MB", pl::cli::between(0, 1 << 20));
   app.add_flag("--quiet", quiet, "no access log");
   app.add_flag("--log-json", cfg.api.log_json, "log as JSON lines (time, level, msg, request_id, ...) for a log collector");
@@ -119,6 +125,8 @@ int main(int argc, char** argv) {
     cfg.api.blob_cache_bytes = cache_mb << 20;
     for (const auto& f : fleet_key_files)
       for (auto& k : pl::signing::load_public_keys(f)) cfg.api.fleet_keys.push_back(std::move(k));
+    if (!timestamp_key_file.empty())
+      cfg.api.timestamp_key = std::make_shared<const pl::signing::SigningKey>(pl::signing::SigningKey::load(timestamp_key_file));
     cfg.access_log = !quiet;
     if (!pl::store::is_postgres_url(cfg.api.db) && !pl::file_exists(cfg.api.db)) throw pl::Error(cfg.api.db + ": no such map store (create one with pl-map tile)");
     if (!tokens.empty()) add_tokens(cfg.api.db, tokens);

@@ -11,9 +11,10 @@
 
 namespace pl::client {
 
-// What an answer refused was: a refusal stands (is last_error again after unrelated requests succeed)
-// until what it refused is had another way: a version adopted, a tile fetched, places fetched.
-enum class Refused { manifest, tile, places };
+// What an answer refused was: a refusal stands (is last_error again after unrelated requests
+// succeed) until what it refused is had another way: a version adopted, a current-version
+// statement verified, a tile fetched, places fetched.
+enum class Refused { manifest, current, tile, places };
 
 class ClientStatus {
  public:
@@ -60,6 +61,13 @@ class ClientStatus {
   }
   void version_adopted() { settled(Refused::manifest); }
   void places_fetched() { settled(Refused::places); }
+  // A fresh current-version statement verified: the version it names, until when (Unix seconds).
+  void current_confirmed(long long version, long long until) {
+    std::lock_guard<std::mutex> lock(mu_);
+    st_.confirmed_version = version;
+    st_.confirmed_until = until;
+    settle_locked(Refused::current);
+  }
   void tile_fetched() {
     std::lock_guard<std::mutex> lock(mu_);
     ++st_.fetched;
@@ -88,7 +96,7 @@ class ClientStatus {
   void settle_locked(Refused what) {
     std::string& r = refusal_[static_cast<int>(what)];
     if (r.empty()) return;
-    if (st_.last_error == r) st_.last_error = std::string();
+    if (st_.last_error.compare(0, r.size(), r) == 0) st_.last_error = std::string();  // (with a failed request's "retrying in")
     r.clear();
     if (st_.last_error.empty()) st_.last_error = standing();
   }
@@ -100,7 +108,7 @@ class ClientStatus {
 
   mutable std::mutex mu_;
   TileClientStatus st_;
-  std::string refusal_[3];  // by Refused
+  std::string refusal_[4];  // by Refused
 };
 
 }  // namespace pl::client

@@ -34,7 +34,7 @@ PL_MEMBERS(PlaceConfig, 3);
 PL_MEMBERS(LidarOdometryConfig, 9);
 PL_MEMBERS(LocalizerConfig, 15);
 PL_MEMBERS(registration::PoseSearch, 7);
-PL_MEMBERS(TileClientConfig, 13);
+PL_MEMBERS(TileClientConfig, 14);
 PL_MEMBERS(VehicleLocalizerConfig, 14);
 #undef PL_MEMBERS
 
@@ -220,6 +220,8 @@ void add(Table t, TileClientConfig& c) {
   FIELD(ca_file, "https: PEM file of the CA the server's certificate must chain to; empty: the system's CAs");
   FIELD(insecure_http, "allow plain http:// to another machine (the map and the token cross the network in clear)");
   FIELD(fleet_keys, "PEM file of the fleet's Ed25519 public key(s): only versions signed with one are used; empty: no check");
+  FIELD(timestamp_keys, "PEM file of the map service's timestamp public key(s) (needs fleet_keys): start only on a version a fresh signed "
+                        "statement names current, or the newest verified; empty: the map answer's current version");
 }
 
 void add(Table t, VehicleLocalizerConfig& c) {

@@ -68,6 +68,8 @@ struct TileClient::Impl {
   // ---- fixed before the thread starts
   TileClientConfig cfg;
   std::vector<std::string> trusted;  // the fleet's public keys (cfg.fleet_keys); empty: signatures not checked
+  std::vector<std::string> current_keys;  // the timestamp keys (cfg.timestamp_keys); empty: the map answer's current version
+  bool confirmed_current = false;         // (the thread's) a fresh statement verified this run
 
   // ---- the background thread's own (status reports are read by status())
   ClientStatus reports;
@@ -120,9 +122,10 @@ struct TileClient::Impl {
   std::thread thread;
 
   // Throws pl::Error for a malformed server URL, then for a disk cache it cannot open.
-  explicit Impl(TileClientConfig c, std::vector<std::string> keys)
+  Impl(TileClientConfig c, std::vector<std::string> keys, std::vector<std::string> timestamp_keys)
       : cfg(std::move(c)),
         trusted(std::move(keys)),
+        current_keys(std::move(timestamp_keys)),
         server(cfg, reports),
         disk(cfg.cache_path, reports),
         pinned(cfg.version),
@@ -290,7 +293,7 @@ struct TileClient::Impl {
     const long long newest = pin ? 0 : floor();
     if (server.may_ask()) {
       try {
-        long long version = pin ? *pin : server.manifest(std::nullopt).version;
+        long long version = pin ? *pin : !current_keys.empty() ? confirm_current() : server.manifest(std::nullopt).version;
         if (version < newest) {
           refuse_older(version, newest);
           if (adopt_signed_from_disk(newest)) return true;
@@ -307,6 +310,25 @@ struct TileClient::Impl {
         if (m->version >= newest && adopt_signed_from_disk(m->version)) return true;
     }
     return false;
+  }
+
+  // With timestamp keys: the version a fresh current-version statement names. Throws RequestFailed.
+  long long confirm_current() {
+    const long long v = server.current(current_keys);
+    confirmed_current = true;
+    return v;
+  }
+
+  // Started (unpinned, with timestamp keys) without a fresh statement, on the newest verified
+  // version because the statement was refused or the server was out of reach: asks again after
+  // each backoff until one verifies, so that a refusal does not outlive the hold-back and status()
+  // says which version is current (a newer one than in use is the integrator's to pin). Returns
+  // whether it asked. Throws RequestFailed.
+  bool unconfirmed() const { return !current_keys.empty() && !confirmed_current && !cfg.version; }
+  bool recheck_current() {
+    if (!unconfirmed() || !server.may_ask()) return false;
+    confirm_current();
+    return true;
   }
 
   // Returns false while a signed version's manifest cannot be had (the old version serves meanwhile).
@@ -503,9 +525,10 @@ struct TileClient::Impl {
           if (!become_ready()) sleep(0, true);
           continue;
         }
+        if (recheck_current()) continue;
         FetchPlan p = plan();
         Outcome o = step(p);
-        if (!o.did) sleep(p.gen, o.network_due || pending_pin.has_value());
+        if (!o.did) sleep(p.gen, o.network_due || pending_pin.has_value() || unconfirmed());
       } catch (const RequestFailed&) {
         // counted and described; the backoff is running and the next step works from memory and disk
       } catch (const std::exception& e) {
@@ -557,15 +580,18 @@ TileClient::TileClient(TileClientConfig cfg) {
        "retry_min_s must be positive and retry_max_s at least retry_min_s");
   // The disk cache is opened here so that a bad path fails at once; used by the background thread
   // only from now on.
-  std::vector<std::string> keys;
-  if (!cfg.fleet_keys.empty()) {
+  auto load = [](const std::string& file, const char* name) {
     try {
-      keys = signing::load_public_keys(cfg.fleet_keys);
+      return file.empty() ? std::vector<std::string>{} : signing::load_public_keys(file);
     } catch (const Error& e) {
-      throw Error(std::string("TileClientConfig: fleet_keys: ") + e.what());
+      throw Error(std::string("TileClientConfig: ") + name + ": " + e.what());
     }
-  }
-  impl_ = std::make_unique<Impl>(std::move(cfg), std::move(keys));
+  };
+  std::vector<std::string> keys = load(cfg.fleet_keys, "fleet_keys"), timestamp_keys = load(cfg.timestamp_keys, "timestamp_keys");
+  need(timestamp_keys.empty() || !keys.empty(),
+       "timestamp_keys needs fleet_keys too: a statement that a version is current is worth something only for versions whose signed "
+       "manifests are checked");
+  impl_ = std::make_unique<Impl>(std::move(cfg), std::move(keys), std::move(timestamp_keys));
   Impl& m = *impl_;
   m.thread = std::thread([&m] { m.run(); });
 }

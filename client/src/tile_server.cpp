@@ -1,5 +1,7 @@
 #include "tile_server.hpp"
 
+#include <chrono>
+
 #include <exception>
 #include <utility>
 
@@ -88,6 +90,24 @@ std::pair<signing::SignedManifest, std::string> TileServer::signed_manifest(long
     last_rejected_ = true;
     const std::string message = about + " refused: " + e.what() + "; not using the version, keeping the tiles in use";
     status_.refused(Refused::manifest, message);
+    failed(message);
+  }
+}
+
+long long TileServer::current(const std::vector<std::string>& trusted) {
+  const std::string about = "the current version of map " + cfg_.map;
+  api::HttpResponse res = get(wire::current_target(cfg_.map, current_refusals_), about,
+                              "does the map exist, with a published version, on a server started with --timestamp-key?");
+  const std::int64_t now = std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+  try {
+    const signing::CurrentVersion c = wire::verified_current(res.body, trusted, cfg_.map, now);
+    status_.current_confirmed(c.version, c.expires);
+    return c.version;
+  } catch (const wire::WireError& e) {
+    ++current_refusals_;
+    last_rejected_ = true;
+    const std::string message = about + " refused: " + e.what() + "; starting only on the newest version this vehicle has verified";
+    status_.refused(Refused::current, message);
     failed(message);
   }
 }

@@ -54,6 +54,11 @@ class TileServer {
   // other entries of any HTTP cache on the way, so that one poisoned entry does not keep the
   // vehicle off the map, while the vehicles that all met it share each next entry.
   std::pair<signing::SignedManifest, std::string> signed_manifest(long long version, const std::vector<std::string>& trusted);
+  // GET /v1/maps/{map}/current: the map's current version as a fresh statement signed with one of
+  // `trusted` (wire::verified_current at the system clock), reported as confirmed. One that does
+  // not verify, is another map's or has expired is counted, stands in the status as refused, and
+  // fails; the next tries ask by other URLs (".../current?refused=N"), as for signed manifests.
+  long long current(const std::vector<std::string>& trusted);
   // GET /v1/maps/{map}/roi: the tiles the server lists for the query's disc in `version`.
   std::vector<CachedTile> roi(const RoiQuery& q, long long version, double tile_size);
 
@@ -85,6 +90,7 @@ class TileServer {
   int last_status_ = 0;
   bool last_rejected_ = false;
   int manifest_refusals_ = 0;  // signed manifests refused so far
+  int current_refusals_ = 0;   // current-version statements refused so far
 };
 
 // GET /v1/maps/{map}/versions/{v}/places for TileClient::places: on the caller's thread, over a

@@ -64,6 +64,23 @@ std::string signed_manifest_target(const std::string& map, long long version, in
   return target;
 }
 
+std::string current_target(const std::string& map, int refusals) {
+  std::string target = "/v1/maps/" + api::url_encode(map) + "/current";
+  if (refusals > 0) target += "?refused=" + std::to_string(refusals);
+  return target;
+}
+
+signing::CurrentVersion verified_current(std::string_view body, const std::vector<std::string>& trusted, const std::string& map,
+                                         std::int64_t now) {
+  try {
+    const signing::SignedCurrent c = signing::verify_signed_current(body, trusted);
+    signing::check_current(c.current, map, now, kClockSkewS);
+    return c.current;
+  } catch (const signing::ManifestError& e) {
+    bad(e.what());
+  }
+}
+
 CachedManifest parse_manifest(std::string_view body, const std::string& map, std::optional<long long> pin) {
   const json j = parse(body, "the manifest");
   CachedManifest m;

@@ -15,6 +15,8 @@
 #include "pl/client/tile_cache.hpp"
 #include "pl/common/tile_codec.hpp"
 #include "pl/schema/api_rules.hpp"
+#include "pl/schema/signed_current.hpp"
+#include "pl/schema/signed_current.hpp"
 #include "pl/schema/signed_manifest.hpp"
 
 namespace pl::client::wire {
@@ -43,6 +45,20 @@ std::string signed_manifest_target(const std::string& map, long long version, in
 // version `version` (a signed manifest of another map or version, replayed, is refused too).
 signing::SignedManifest verified_manifest(std::string_view body, const std::vector<std::string>& trusted, const std::string& map,
                                           long long version);
+
+// How far the vehicle's clock and the map service's may disagree when a current-version statement's
+// times are checked, s.
+inline constexpr std::int64_t kClockSkewS = 60;
+
+// The target of GET /v1/maps/{map}/current after `refusals` statements were refused (?refused=N:
+// another entry of any cache on the way, as for signed manifests).
+std::string current_target(const std::string& map, int refusals);
+
+// GET /v1/maps/{map}/current with timestamp keys: a current-version statement
+// (pl/schema/signed_current.hpp) that verifies against one of `trusted`, is `map`'s, and is valid at
+// `now` (Unix seconds, give or take kClockSkewS).
+signing::CurrentVersion verified_current(std::string_view body, const std::vector<std::string>& trusted, const std::string& map,
+                                         std::int64_t now);
 
 // GET /v1/maps/{map}/roi?...&version=V: the tiles listed (key, hash, points). The answer must be for
 // `version` and `tile_size`; every tile needs integer keys, a valid hash and points >= 0.

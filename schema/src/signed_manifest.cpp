@@ -427,35 +427,42 @@ std::string signature_line(std::string_view public_key, std::string_view signatu
   return "signature ed25519 " + encode_base64(public_key) + " " + encode_base64(signature) + "\n";
 }
 
-SignedManifest verify_signed_manifest(std::string_view body, const std::vector<std::string>& trusted) {
-  if (body.size() > kMaxManifestBytes + 256)
-    throw ManifestError("the signed manifest is larger than " + std::to_string(kMaxManifestBytes >> 20) + " MiB");
+VerifiedText verify_signed_text(std::string_view body, const std::vector<std::string>& trusted, std::size_t max_text_bytes,
+                                const std::string& noun, const std::string& unsigned_fix, const std::string& keys) {
+  if (body.size() > max_text_bytes + 256)
+    throw ManifestError("the signed " + noun + " is larger than " +
+                        (max_text_bytes >= (1u << 20) ? std::to_string(max_text_bytes >> 20) + " MiB" : std::to_string(max_text_bytes) + " bytes"));
   // The signature line is the last one: the text is everything before it.
-  if (body.empty() || body.back() != '\n') throw ManifestError("the signed manifest does not end with a line end (cut short?)");
+  if (body.empty() || body.back() != '\n') throw ManifestError("the signed " + noun + " does not end with a line end (cut short?)");
   const std::size_t start = body.rfind('\n', body.size() - 2);
   const std::size_t line_at = start == std::string_view::npos ? 0 : start + 1;
   const std::string_view line = body.substr(line_at, body.size() - 1 - line_at);
-  const std::string_view text = body.substr(0, line_at);
   const auto w = words(line);
-  if (w.size() != 4 || w[0] != "signature")
-    throw ManifestError("the manifest carries no signature: publish the version signed (pl-map publish/push --signing-key)");
-  if (w[1] != "ed25519") throw ManifestError("the manifest is signed with \"" + std::string(w[1]).substr(0, 32) + "\", not ed25519");
+  if (w.size() != 4 || w[0] != "signature") throw ManifestError("the " + noun + " carries no signature: " + unsigned_fix);
+  if (w[1] != "ed25519") throw ManifestError("the " + noun + " is signed with \"" + std::string(w[1]).substr(0, 32) + "\", not ed25519");
   const auto key = decode_base64(w[2]);
   const auto sig = decode_base64(w[3]);
   if (!key || key->size() != kPublicKeyBytes || !sig || sig->size() != kSignatureBytes)
-    throw ManifestError("the manifest's signature line does not hold a 32-byte key and a 64-byte signature in base64");
+    throw ManifestError("the " + noun + "'s signature line does not hold a 32-byte key and a 64-byte signature in base64");
   bool known = false;
   for (const auto& t : trusted) known = known || t == *key;
   if (!known)
-    throw ManifestError("the manifest is signed by key " + key_id(*key) +
-                        ", which is not among the fleet's keys: signed by someone else, or the fleet key list is out of date");
-  if (!verify(*key, text, *sig))
-    throw ManifestError("the manifest's signature by key " + key_id(*key) +
+    throw ManifestError("the " + noun + " is signed by key " + key_id(*key) + ", which is not among " + keys +
+                        ": signed by someone else, or the key list is out of date");
+  VerifiedText out{body.substr(0, line_at), *key};
+  if (!verify(*key, out.text, *sig))
+    throw ManifestError("the " + noun + "'s signature by key " + key_id(*key) +
                         " does not verify: its bytes were altered after signing (in a cache, on the network, in the store?)");
+  return out;
+}
+
+SignedManifest verify_signed_manifest(std::string_view body, const std::vector<std::string>& trusted) {
+  const VerifiedText v = verify_signed_text(body, trusted, kMaxManifestBytes, "manifest",
+                                            "publish the version signed (pl-map publish/push --signing-key)", "the fleet's keys");
   SignedManifest out;
-  out.manifest = parse_manifest_text(text);
-  out.text = std::string(text);
-  out.public_key = *key;
+  out.manifest = parse_manifest_text(v.text);
+  out.text = std::string(v.text);
+  out.public_key = v.public_key;
   return out;
 }
 

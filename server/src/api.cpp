@@ -20,6 +20,7 @@
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
 #include "pl/schema/api_rules.hpp"
+#include "pl/schema/signed_current.hpp"
 #include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 #include "api_parts.hpp"
@@ -336,6 +337,21 @@ struct Api::Impl {
       j["bytes"] = 0;
     }
     return revalidated(json_response(200, j, "/v1/maps/{map}"));
+  }
+
+  // The map's current version vouched for fresh (pl/schema/signed_current.hpp): signed with the
+  // timestamp key at each request (Ed25519 is deterministic: replicas asked in the same second give
+  // the same bytes), so a cache may keep it a second like the map's manifest, never longer.
+  ApiResponse current(const ApiRequest& req, const std::string& name) {
+    const std::string route = "/v1/maps/{map}/current";
+    check_reader(req);
+    if (!cfg.timestamp_key)
+      fail(404, "this server signs no current-version statements: start pl-server with --timestamp-key FILE (a key of pl-map key-gen) "
+                "and give the vehicles its public key (pl-localize --timestamp-keys)");
+    auto m = need_map(name);
+    if (!m.current) fail(404, "map " + name + " has no published version yet");
+    const std::int64_t now = std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+    return revalidated(text(200, signing::sign_current({name, *m.current, now, now + cfg.timestamp_lifetime_s}, *cfg.timestamp_key), route));
   }
 
   // The in-memory index of a published or retired version (which never changes), built from the
@@ -757,6 +773,10 @@ struct Api::Impl {
     if (s.size() == 3) {
       if (only(get, "/v1/maps/{map}", kReadOnly)) return options(kReadOnly);
       return manifest(req, map);
+    }
+    if (s.size() == 4 && s[3] == "current") {
+      if (only(get, "/v1/maps/{map}/current", kReadOnly)) return options(kReadOnly);
+      return current(req, map);
     }
     if (s.size() == 4 && s[3] == "roi") {
       if (only(get, "/v1/maps/{map}/roi", kReadOnly)) return options(kReadOnly);

@@ -22,6 +22,7 @@
 #include "pl/common/cloud_io.hpp"
 #include "pl/common/tile_codec.hpp"
 #include "pl/schema/http_client.hpp"
+#include "pl/schema/signed_current.hpp"
 #include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 #include "server_process.hpp"
@@ -477,5 +478,104 @@ TEST(TileClient, FleetKeysFileThatIsNoKeyFailsAtConstruction) {
   } catch (const pl::Error& e) {
     EXPECT_NE(std::string(e.what()).find("fleet_keys"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("no PEM public key"), std::string::npos) << e.what();
+  }
+}
+
+// The freeze a signed manifest alone cannot see: a cache (or the network) keeps answering that an
+// older version is current after a newer one is published. With the map service's timestamp key,
+// the vehicle takes "current" only from a fresh signed statement: a held-back one (expired) is
+// refused and said, the vehicle starts on the newest version it has verified (or, having none,
+// waits), and once the statement is fresh again it takes the newest version.
+TEST(TileClient, AHeldBackCurrentVersionIsRefusedOnceItsStatementExpires) {
+  SignedFixture f;
+  f.run("key-gen --out " + (f.dir / "timestamp"));
+  const auto timestamp = pl::signing::SigningKey::load(f.dir / "timestamp.key");
+  auto publish_next = [&](int parent) {
+    {
+      auto store = pl::store::Store::open(f.db, false);
+      store.create_version("town", parent, "v" + std::to_string(parent + 1));
+    }
+    f.run("publish --db " + f.db + " --map town --version " + std::to_string(parent + 1) + " --signing-key " + (f.dir / "fleet.key"));
+  };
+  publish_next(1);
+  ServerProcess server(f.db, {"--timestamp-key", f.dir / "timestamp.key"});
+  TamperingProxy proxy(server.url());
+  auto config = [&](const std::string& cache) {
+    TileClientConfig c = f.config(proxy.url());
+    c.cache_path = f.dir / cache;
+    c.timestamp_keys = f.dir / "timestamp.pub";
+    return c;
+  };
+  auto now = [] { return std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count(); };
+  {
+    TileClient client(config("vehicle.sqlite"));
+    ASSERT_TRUE(client.wait_ready(30)) << client.status().last_error;
+    const auto s = client.status();
+    EXPECT_EQ(s.version, 2);
+    EXPECT_EQ(s.confirmed_version, 2);
+    EXPECT_GT(s.confirmed_until, now() + 200);  // pl-server's default lifetime: 300 s
+    EXPECT_EQ(s.rejected, 0u);
+    EXPECT_TRUE(s.last_error.empty()) << s.last_error;
+  }
+  // Version 3 is published; the cache holds back the answers of when version 2 was current: the
+  // map's JSON, and the signed statement, which has since expired.
+  publish_next(2);
+  const std::string held_back = pl::signing::sign_current({"town", 2, now() - 4000, now() - 3600}, timestamp);
+  std::atomic<bool> holding{true};
+  proxy.set_alter([&](const std::string& target, std::string& body) {
+    if (!holding) return;
+    if (target.rfind("/v1/maps/town/current", 0) == 0) body = held_back;
+    if (target == "/v1/maps/town") {
+      const auto at = body.find("\"current_version\":3");
+      if (at != std::string::npos) body.replace(at, 19, "\"current_version\":2");
+    }
+  });
+  {
+    // The vehicle that verified version 2 before starts on it, saying why it cannot know more.
+    TileClient client(config("vehicle.sqlite"));
+    ASSERT_TRUE(client.wait_ready(30)) << client.status().last_error;
+    ASSERT_TRUE(eventually([&] { return client.status().rejected >= 2; })) << client.status().last_error;
+    for (int i = 0; i < 50; ++i) {  // the refusal stands while the client asks again
+      const auto s = client.status();
+      EXPECT_EQ(s.version, 2);
+      EXPECT_EQ(s.confirmed_version, 0);
+      ASSERT_NE(s.last_error.find("expired at"), std::string::npos) << s.last_error;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    EXPECT_NE(client.status().last_error.find("may hide a newer version"), std::string::npos);
+    // ... and asks by other URLs, past a poisoned cache entry.
+    bool other_url = false;
+    for (const auto& t : proxy.targets()) other_url |= t == "/v1/maps/town/current?refused=1";
+    EXPECT_TRUE(other_url);
+  }
+  {
+    // A vehicle that has verified nothing waits rather than start on what it cannot trust.
+    TileClient fresh(config("fresh.sqlite"));
+    EXPECT_FALSE(fresh.wait_ready(1.0));
+    EXPECT_NE(fresh.status().last_error.find("expired at"), std::string::npos) << fresh.status().last_error;
+    // A statement signed by another key (the fleet's, say) is no better.
+    const std::string forged = pl::signing::sign_current({"town", 2, now(), now() + 300}, pl::signing::SigningKey::load(f.dir / "fleet.key"));
+    proxy.set_alter([&](const std::string& target, std::string& body) {
+      if (target.rfind("/v1/maps/town/current", 0) == 0) body = forged;
+    });
+    ASSERT_TRUE(eventually([&] { return fresh.status().last_error.find("not among the vehicle's timestamp keys") != std::string::npos; }))
+        << fresh.status().last_error;
+    EXPECT_FALSE(fresh.status().ready);
+    // The cache lets go: the fresh statement names version 3, taken, and the refusal is over.
+    proxy.set_alter(nullptr);
+    ASSERT_TRUE(fresh.wait_ready(30)) << fresh.status().last_error;
+    const auto s = fresh.status();
+    EXPECT_EQ(s.version, 3);
+    EXPECT_EQ(s.confirmed_version, 3);
+    EXPECT_TRUE(s.last_error.empty()) << s.last_error;
+  }
+  // timestamp_keys without fleet_keys: refused at construction, naming both.
+  TileClientConfig c = config("x.sqlite");
+  c.fleet_keys.clear();
+  try {
+    TileClient client(c);
+    FAIL() << "constructed";
+  } catch (const pl::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("timestamp_keys needs fleet_keys"), std::string::npos) << e.what();
   }
 }

@@ -2,7 +2,8 @@
 // server and the vehicle): the HTTP answer itself under the client's limits, and the manifest, ROI
 // JSON, error bodies, tile bytes and places in it. The first byte says which; the rest is the
 // answer (for places: the ETag, a newline, the bytes). Also a signed manifest (verified against the
-// seeds' fleet key) and a manifest's text alone.
+// seeds' fleet key) and a manifest's text alone; a current-version statement (verified against the
+// seeds' fleet key, at a fixed clock) and its text alone.
 #include <boost/asio/buffer.hpp>
 #include <cmath>
 #include <cstdint>
@@ -13,6 +14,7 @@
 #include "beast_feed.hpp"
 #include "http_response.hpp"
 #include "pl/common/error.hpp"
+#include "pl/schema/signed_current.hpp"
 #include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 #include "seeds.hpp"
@@ -77,6 +79,29 @@ void manifest_text(std::string_view body) {
   }
 }
 
+// A current-version statement as the tile client takes it (with timestamp keys; the seeds sign with
+// the fleet key): what passes verified, is town's, is canonical and valid at the clock given.
+void signed_current(std::string_view body) {
+  constexpr std::int64_t kNow = 1'800'000'000;
+  try {
+    const auto c = wire::verified_current(body, fleet(), "town", kNow);
+    if (c.map != "town" || c.version < 1 || c.expires <= c.issued || c.issued > kNow + wire::kClockSkewS ||
+        c.expires < kNow - wire::kClockSkewS)
+      std::abort();
+    const std::string text = pl::signing::current_text(c);
+    if (body.substr(0, text.size()) != text || body.substr(text.size(), 18) != "signature ed25519 ") std::abort();
+  } catch (const wire::WireError&) {
+  }
+}
+
+// A statement's text alone: what parses writes back byte for byte.
+void current_text(std::string_view body) {
+  try {
+    if (pl::signing::current_text(pl::signing::parse_current_text(body)) != body) std::abort();
+  } catch (const pl::signing::ManifestError&) {
+  }
+}
+
 void places(std::string_view in) {
   const auto nl = in.find('\n');
   const std::string_view etag = nl == std::string_view::npos ? std::string_view() : in.substr(0, nl);
@@ -127,7 +152,7 @@ void http_answer(std::string_view in) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;
   const std::string_view body(reinterpret_cast<const char*>(data) + 1, size - 1);
-  switch (data[0] % 9) {
+  switch (data[0] % 11) {
     case 0: manifest(body, std::nullopt); break;
     case 1: manifest(body, 3); break;
     case 2: roi(body); break;
@@ -141,6 +166,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     case 6: places(body); break;
     case 7: signed_manifest(body); break;
     case 8: manifest_text(body); break;
+    case 9: signed_current(body); break;
+    case 10: current_text(body); break;
   }
   return 0;
 }

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "api_env.hpp"
+#include "pl/schema/signed_current.hpp"
 #include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 #include "seeds.hpp"
@@ -120,6 +121,10 @@ void client_answer_seeds(const pl::fuzz::PutSeed& put) {
   const auto key = pl::signing::SigningKey::from_seed(pl::fuzz::kFleetSeed);
   put("signed-manifest", std::string(1, '\7') + body + pl::signing::signature_line(key.public_key(), key.sign(body)));
   put("manifest-text", std::string(1, '\10') + body);
+  // A current-version statement valid at the target's clock, signed with the fleet key.
+  const std::string current = pl::signing::sign_current({"town", 1, 1'800'000'000 - 10, 1'800'000'000 + 290}, key);
+  put("signed-current", std::string(1, '\11') + current);
+  put("current-text", std::string(1, '\12') + current.substr(0, current.find("signature ")));
 }
 
 const bool registered = pl::fuzz::register_seeds("api", api_seeds) && pl::fuzz::register_seeds("http", http_seeds) &&

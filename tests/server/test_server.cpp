@@ -6,6 +6,7 @@
 #include <sys/socket.h>
 
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -19,6 +20,7 @@
 #include "pl/common/text.hpp"
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
+#include "pl/schema/signed_current.hpp"
 #include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 #include "map_fixture.hpp"
@@ -702,4 +704,45 @@ TEST(Server, TokensAreRotatedAndRevokedWithoutARestart) {
     if (e.action == "create_version") who.push_back(e.who);
   EXPECT_EQ(who, (std::vector<std::string>{"token " + std::to_string(old_id), "token " + std::to_string(fresh_id),
                                            "token " + std::to_string(fresh_id)}));
+}
+
+// GET /v1/maps/{map}/current: the map's current version signed with the timestamp key at each
+// request, following publishes, valid for --timestamp-lifetime; 404 naming the fix without a key.
+TEST(Server, CurrentVersionIsSignedFreshWithTheTimestampKey) {
+  MapFixture f;
+  const auto key = pl::signing::SigningKey::from_seed("pointlocalization timestamp test");
+  key.save(f.dir / "timestamp.key");
+  ServerProcess server(f.db, {"--timestamp-key", f.dir / "timestamp.key", "--timestamp-lifetime", "120", "--tokens", f.dir / "tokens.txt"});
+  HttpClient http(server.url());
+  auto now = [] { return std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count(); };
+  auto current = [&] {
+    const std::int64_t before = now();
+    auto r = http.get("/v1/maps/town/current");
+    EXPECT_EQ(r.status, 200) << r.body;
+    EXPECT_EQ(r.header("cache-control"), "public, max-age=1");
+    EXPECT_EQ(r.header("content-type").rfind("text/plain", 0), 0u);
+    const auto c = pl::signing::verify_signed_current(r.body, {key.public_key()}).current;
+    EXPECT_EQ(c.map, "town");
+    EXPECT_GE(c.issued, before);
+    EXPECT_LE(c.issued, now());
+    EXPECT_EQ(c.expires - c.issued, 120);
+    return c.version;
+  };
+  EXPECT_EQ(current(), 1);
+  auto v = http.request("POST", "/v1/maps/town/versions", "", bearer(kUploadToken));
+  ASSERT_EQ(v.status, 201) << v.body;
+  ASSERT_EQ(http.request("POST", "/v1/maps/town/versions/2/publish", "", bearer(kUploadToken)).status, 200);
+  EXPECT_EQ(current(), 2);
+  expect_error(http.get("/v1/maps/nowhere/current"), 404, "no map");
+  EXPECT_EQ(http.request("POST", "/v1/maps/town/current", "", bearer(kUploadToken)).status, 405);
+
+  // Without a key: 404 saying how to get one.
+  ServerProcess plain(f.db);
+  HttpClient http2(plain.url());
+  expect_error(http2.get("/v1/maps/town/current"), 404, "start pl-server with --timestamp-key");
+  // A key file that is no key: pl-server does not start, naming the file.
+  pl::test::write_file(f.dir / "bad.key", "not a key\n");
+  auto r = pl::test::run(pl::test::tool("pl-server") + " --db " + f.db + " --listen 127.0.0.1:0 --timestamp-key " + (f.dir / "bad.key"));
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find(f.dir / "bad.key"), std::string::npos) << r.output;
 }

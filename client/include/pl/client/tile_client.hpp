@@ -30,6 +30,15 @@
 //   version below it is refused (counted, said in last_error) and that highest one is used. The map
 //   service's rollbacks publish new, higher versions, so only a replayed answer or a store restored
 //   from an older copy goes back; a pinned version (cfg.version, pin_version) is taken as asked.
+// - With timestamp_keys as well, "current" is what the map service vouches for fresh: unpinned, the
+//   client starts on the version a current-version statement (pl/schema/signed_current.hpp, GET
+//   /v1/maps/{map}/current) names once it verifies against one of those keys, is the map's and has
+//   not expired by the vehicle's clock (give or take wire::kClockSkewS, 60 s). One that fails any of
+//   that is refused (counted; it stands in last_error until a good one comes) and the client starts
+//   on the newest version it has verified (its disk cache's), or waits while it has none, asking
+//   again by another URL (.../current?refused=N). So an answer held back by a cache or the network
+//   hides a newer version for at most the statement's lifetime (pl-server --timestamp-lifetime). The
+//   statement is asked for at start; a running client stays on its version (pin_version changes it).
 #pragma once
 
 #include <Eigen/Core>
@@ -69,6 +78,11 @@ struct TileClientConfig {
   // store and the vehicle is refused (counted in status().rejected) and never used. Empty: versions
   // are not checked for signatures (tile bytes are still checked against the server's hashes).
   std::string fleet_keys;
+  // PEM file of the map service's timestamp public key(s) (the public half of pl-server
+  // --timestamp-key; needs fleet_keys): unpinned, start only on the version a fresh signed
+  // current-version statement names, or on the newest this vehicle has verified (above). Empty: the
+  // map answer's current version is taken as it comes (above the newest verified).
+  std::string timestamp_keys;
 };
 
 struct TileClientStatus {
@@ -88,6 +102,8 @@ struct TileClientStatus {
   std::string signed_by;      // with fleet_keys: the id of the key the version in use is signed with
   long long newest_verified = 0;  // with fleet_keys: the highest version of the map whose signed manifest
                                   // this vehicle has verified (this run or kept in its disk cache)
+  long long confirmed_version = 0;  // with timestamp_keys: the version the last fresh current-version statement
+  long long confirmed_until = 0;    // named, and when it expires (Unix seconds); 0: none verified this run
   std::size_t evicted = 0;    // tiles dropped from memory to stay within memory_mb
   std::string last_error;     // the last problem, naming what to do; empty when fine (cleared by
                               // the next successful request, except a refusal: that stands until a

@@ -133,6 +133,19 @@ void sign_staged_version(store::Store& s, const std::string& map, std::int64_t v
 // The line a signed manifest ends with.
 std::string signature_line(std::string_view public_key, std::string_view signature);
 
+// A signed text as pl-server serves one (a manifest; a current-version statement,
+// pl/schema/signed_current.hpp): the text, then one "signature ed25519 KEY SIGNATURE" line over the
+// text's bytes. Splits `body` at that line and checks the signature against `trusted` (public keys,
+// 32 bytes each). Messages name the text as `noun` ("manifest"), say `unsigned_fix` for a text that
+// carries no signature, and name the trusted keys as `keys` ("the fleet's keys"). Throws
+// ManifestError; returns the text (a view into body) and the key that signed it.
+struct VerifiedText {
+  std::string_view text;
+  std::string public_key;
+};
+VerifiedText verify_signed_text(std::string_view body, const std::vector<std::string>& trusted, std::size_t max_text_bytes,
+                                const std::string& noun, const std::string& unsigned_fix, const std::string& keys);
+
 struct SignedManifest {
   Manifest manifest;
   std::string text;        // the manifest's text (the signed bytes)

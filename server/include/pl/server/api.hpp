@@ -13,6 +13,10 @@
 
 #include "pl/common/tile_key.hpp"
 
+namespace pl::signing {
+class SigningKey;
+}
+
 namespace pl::server {
 
 // The check of an uploaded tile (PUT .../tiles/{tx}/{ty}): the bytes decode (within decode_tile's
@@ -42,6 +46,11 @@ struct ApiConfig {
   // publish must carry a signature of the version's manifest by one of them; without, an unsigned
   // publish is taken and a signed one needs only a signature that verifies.
   std::vector<std::string> fleet_keys;
+  // The timestamp key (pl-server --timestamp-key, an Ed25519 private key the servers hold): with it,
+  // GET /v1/maps/{map}/current answers the map's current version signed with it at each request,
+  // expiring timestamp_lifetime_s later (pl/schema/signed_current.hpp). Unset: that route is 404.
+  std::shared_ptr<const signing::SigningKey> timestamp_key;
+  std::int64_t timestamp_lifetime_s = 300;
 };
 
 struct ApiRequest {
@@ -80,7 +89,7 @@ class Metrics {
   std::string render(std::int64_t database_bytes) const;
 
  private:
-  static constexpr const char* kRoutes[] = {"/healthz", "/readyz", "/metrics", "/v1/maps", "/v1/maps/{map}", "/v1/maps/{map}/roi",
+  static constexpr const char* kRoutes[] = {"/healthz", "/readyz", "/metrics", "/v1/maps", "/v1/maps/{map}", "/v1/maps/{map}/current", "/v1/maps/{map}/roi",
                                             "/v1/maps/{map}/versions", "/v1/maps/{map}/versions/{v}/tiles",
                                             "/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}", "/v1/maps/{map}/versions/{v}/publish",
                                             "/v1/maps/{map}/versions/{v}/places", "/v1/maps/{map}/versions/{v}/manifest",
