@@ -2,7 +2,7 @@
 # PointLocalization: set-up, build, demo, tests and benchmarks in one command.
 #   ./pl demo    install what is missing, build Release, run the main job and print its result
 #   ./pl test    install what is missing, build Debug with ASan+UBSan, run every test, the threaded
-#                ones again under ThreadSanitizer, fuzz each target 30 s
+#                ones again under ThreadSanitizer, fuzz each target 20 s
 #   ./pl bench   install what is missing, build Release, run every benchmark in bench/
 #   ./pl build   install what is missing and build Release only
 #   ./pl fuzz [TARGET...] [--seconds N]   build the libFuzzer targets (clang) and run each N s (60)
@@ -77,9 +77,9 @@ cmd_test() {
   export PL_NO_PROGRESS=1
   ctest --test-dir build/asan --output-on-failure -j "$JOBS"
   test_tsan
-  say "fuzzing every input parser for 30 s each"
+  say "fuzzing every input parser for 20 s each"
   build_fuzz
-  bash tests/fuzz/run.sh build/fuzz/bin 30
+  bash tests/fuzz/run.sh build/fuzz/bin 20
 }
 
 # The threaded parts under ThreadSanitizer: the tile client (its fetch thread against a real

@@ -16,7 +16,6 @@
 #include "pl/common/tile_codec.hpp"
 #include "pl/schema/api_rules.hpp"
 #include "pl/schema/signed_current.hpp"
-#include "pl/schema/signed_current.hpp"
 #include "pl/schema/signed_manifest.hpp"
 
 namespace pl::client::wire {

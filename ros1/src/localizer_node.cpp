@@ -628,12 +628,16 @@ struct LocalizerNode::Impl {
     if (l) {
       const client::TileClientStatus st = l->tile_status();
       const bool local = !cfg.store_path.empty();
-      c.level = local || st.online ? diagnostic_msgs::DiagnosticStatus::OK : diagnostic_msgs::DiagnosticStatus::WARN;
-      c.message = local ? "local store" : st.online ? "online" : "offline: " + st.last_error;
+      // Online with a problem standing (an answer refused: a manifest or tile altered on the way, a
+      // current-version statement held back) is a warning too.
+      c.level = local || (st.online && st.last_error.empty()) ? diagnostic_msgs::DiagnosticStatus::OK : diagnostic_msgs::DiagnosticStatus::WARN;
+      c.message = local ? "local store" : !st.online ? "offline: " + st.last_error : st.last_error.empty() ? "online" : "online; " + st.last_error;
       c.values = {kv("online", local || st.online ? "true" : "false"), kv("version", std::to_string(l->map_version())),
                   kv("tiles_in_memory", std::to_string(st.tiles_in_memory)), kv("fetched", std::to_string(st.fetched)),
                   kv("from_disk", std::to_string(st.from_disk)), kv("failures", std::to_string(st.failures)),
-                  kv("retries", std::to_string(st.retries)), kv("last_error", st.last_error)};
+                  kv("retries", std::to_string(st.retries)), kv("rejected", std::to_string(st.rejected)),
+                  kv("confirmed_version", std::to_string(st.confirmed_version)), kv("confirmed_until", std::to_string(st.confirmed_until)),
+                  kv("last_error", st.last_error)};
       if (const std::string e = l->last_error(); !e.empty()) s.values.push_back(kv("error", e));
     }
     a.status = {s, c};

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <functional>
 #include <map>
@@ -22,8 +23,11 @@
 
 #include "pl/common/cloud_io.hpp"
 #include "pl/common/error.hpp"
+#include "error_of.hpp"
 #include "pl/fleet/fleet.hpp"
 #include "pl/schema/http_client.hpp"
+#include "pl/schema/signed_current.hpp"
+#include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 #include "server_process.hpp"
 #include "test_util.hpp"
@@ -477,4 +481,42 @@ TEST(Fleet, CommandLine) {
   EXPECT_EQ(j["vehicles"].get<int>(), 3);
   EXPECT_EQ(j["per_vehicle"].size(), 3u);
   EXPECT_TRUE(j["origin"]["ok"].get<bool>());
+}
+
+// With the map service's timestamp key: each vehicle takes the version a fresh signed statement
+// names (GET /v1/maps/{map}/current), as the tile client does; a statement held back past its
+// expiry is refused and no version is used (a vehicle without a disk cache has none to fall back on).
+TEST(Fleet, WithTimestampKeysTheVersionIsTheOneAFreshStatementNames) {
+  FleetMap& f = fleet_map();
+  TempDir d;
+  const auto key = pl::signing::SigningKey::generate();
+  key.save(d / "timestamp.key");
+  pl::signing::save_public_key(key.public_key(), d / "timestamp.pub");
+  ServerProcess server(f.db, {"--timestamp-key", d / "timestamp.key"});
+  std::atomic<int> statements{0};
+  Relay counting(server.url(), [&](const std::string& target, std::string&) { statements += target == "/v1/maps/signed/current"; });
+  FleetOptions o = options(counting.url(), 5, 2.0);
+  o.map = "signed";
+  o.fleet_keys = f.dir / "fleet.pub";
+  o.timestamp_keys = d / "timestamp.pub";
+  const FleetReport good = run_fleet(o);
+  EXPECT_EQ(good.vehicles_ready, 5);
+  EXPECT_EQ(good.rejected, 0u);
+  EXPECT_EQ(statements.load(), 5);  // one a vehicle, and no JSON manifest asked instead
+  EXPECT_GT(good.tiles, 0u);
+
+  const auto now = std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+  const std::string expired = pl::signing::sign_current({"signed", 1, now - 4000, now - 3600}, key);
+  Relay holding(server.url(), [&](const std::string& target, std::string& body) {
+    if (target.rfind("/v1/maps/signed/current", 0) == 0) body = expired;
+  });
+  o.server = holding.url();
+  o.start_wait_s = 0.3;
+  const FleetReport held = run_fleet(o);
+  EXPECT_EQ(held.vehicles_ready, 0);
+  EXPECT_GT(held.rejected, 0u);
+  EXPECT_EQ(held.tile_requests, 0u);
+
+  o.fleet_keys.clear();
+  EXPECT_NE(pl::test::error_of([&] { run_fleet(o); }).find("--timestamp-keys needs --fleet-keys"), std::string::npos);
 }

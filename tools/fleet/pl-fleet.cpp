@@ -50,6 +50,9 @@ int main(int argc, char** argv) {
   app.add_option("--token", o.token, "bearer token for reads, when the server requires one")->type_name("TOKEN");
   app.add_option("--fleet-keys", o.fleet_keys, "the fleet's public key(s) (pl-map key-gen): a version is used only once its signed "
                  "manifest verifies")->check(CLI::ExistingFile)->type_name("FILE.pub");
+  app.add_option("--timestamp-keys", o.timestamp_keys, "the map service's timestamp public key(s) (pl-server --timestamp-key; with "
+                 "--fleet-keys): the version used is the one a fresh signed statement names current")
+      ->check(CLI::ExistingFile)->type_name("FILE.pub");
   app.add_option("--origin-metrics", o.origin_metrics, "a replica's /metrics URL (repeat per replica), scraped before and after: the "
                  "origin's share of the requests")->type_name("URL");
   pl::cli::output_file(app, "--json", json_out, "every figure and a row per vehicle, as JSON");

@@ -186,6 +186,7 @@ struct Shared {
   std::string host;                       // for SNI and the certificate's name check (https)
   std::optional<net::ssl::context> tls;   // https only
   std::vector<std::string> trusted;
+  std::vector<std::string> current_keys;  // timestamp keys: "current" only from a fresh signed statement
   std::map<TileKey, std::string> truth;  // the version's tiles (key -> hash), for stalls
   double tile_size = 0;
   double extent[4] = {0, 0, 0, 0};       // of the version's tiles: min x, min y, max x, max y
@@ -194,7 +195,7 @@ struct Shared {
   std::atomic<std::size_t> scans{0}, stalled{0}, tile_requests{0}, roi_queries{0}, failures{0}, rejected{0};
 };
 
-enum class Kind { Manifest, Signed, Roi, Tile };
+enum class Kind { Manifest, Current, Signed, Roi, Tile };
 
 struct CacheTally {
   CacheCounts tiles, roi, manifests;
@@ -348,6 +349,8 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
     const auto now = Clock::now();
     if (!backoff_.allowed(now)) return arm_wake(backoff_.until());
     if (!ready_) {
+      if (!version_ && !sh_.current_keys.empty())
+        return send(Kind::Current, client::wire::current_target(sh_.o.map, current_refusals_));
       if (!version_)
         return send(Kind::Manifest, "/v1/maps/" + api::url_encode(sh_.o.map));
       // After a refusal, by another URL (another cache entry), as the tile client asks.
@@ -444,6 +447,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
     if (backoff_.backing_off()) ++rep_.retries;
     switch (kind) {
       case Kind::Manifest:
+      case Kind::Current:
       case Kind::Signed: ++rep_.manifest_requests; break;
       case Kind::Roi:
         ++rep_.roi_queries;
@@ -570,6 +574,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
     const int status = static_cast<int>(res.result_int());
     switch (kind_) {
       case Kind::Manifest:
+      case Kind::Current:
       case Kind::Signed: tally(cache_.manifests, x_cache); break;
       case Kind::Roi:
         tally(cache_.roi, x_cache);
@@ -591,6 +596,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
     try {
       switch (kind_) {
         case Kind::Manifest: return on_manifest(body);
+        case Kind::Current: return on_current(body);
         case Kind::Signed: return on_signed(body);
         case Kind::Roi: return on_roi(body);
         case Kind::Tile: return on_tile(body);
@@ -614,6 +620,22 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
     CachedManifest m = client::wire::parse_manifest(body, sh_.o.map, sh_.o.version);
     if (sh_.trusted.empty()) return become_ready(m);
     version_ = m.version;  // the signed manifest of that version is next
+    backoff_.succeeded();
+    done();
+  }
+
+  // With timestamp keys: the version a fresh signed statement names (the tile client's
+  // TileServer::current). One refused (altered, forged, expired) is counted and asked again by
+  // another URL; a vehicle without a disk cache has no verified version to fall back on, and waits.
+  void on_current(const std::string& body) {
+    const auto now = std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+    try {
+      version_ = client::wire::verified_current(body, sh_.current_keys, sh_.o.map, now).version;
+    } catch (const client::wire::WireError&) {
+      ++current_refusals_;
+      rejected();
+      return failed("refused current version");
+    }
     backoff_.succeeded();
     done();
   }
@@ -721,6 +743,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
   bool ready_ = false;
   std::optional<long long> version_;  // with fleet keys: the version whose signed manifest is asked for
   int manifest_refusals_ = 0;         // signed manifests refused (the next is asked with ?refused=N)
+  int current_refusals_ = 0;          // current-version statements refused (likewise)
   CachedManifest manifest_;
   std::optional<TileGrid> grid_;
   TileIndex index_;
@@ -887,6 +910,14 @@ FleetReport run_fleet(const FleetOptions& options, const FleetObserver& observer
       sh->trusted = signing::load_public_keys(o.fleet_keys);
     } catch (const Error& e) {
       throw Error(std::string("--fleet-keys: ") + e.what());
+    }
+  }
+  if (!o.timestamp_keys.empty()) {
+    if (sh->trusted.empty()) throw Error("--timestamp-keys needs --fleet-keys: the versions a statement names current are used signed");
+    try {
+      sh->current_keys = signing::load_public_keys(o.timestamp_keys);
+    } catch (const Error& e) {
+      throw Error(std::string("--timestamp-keys: ") + e.what());
     }
   }
   // Enough file descriptors for a connection per vehicle.

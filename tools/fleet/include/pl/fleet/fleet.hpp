@@ -46,6 +46,9 @@ struct FleetOptions {
   std::string token;                        // bearer token for reads, when the server requires one
   std::string fleet_keys;                   // PEM of the fleet's public key(s): versions used only once
                                             // their signed manifest verifies (wire::verified_manifest)
+  std::string timestamp_keys;               // PEM of the map service's timestamp key(s) (with fleet_keys):
+                                            // the version a fresh signed statement names current
+                                            // (GET /v1/maps/{map}/current, wire::verified_current)
   std::vector<std::string> origin_metrics;  // each replica's /metrics URL, scraped before and after
   bool record_fetches = false;              // keep every fetched tile (key, hash of the bytes, size) in
                                             // VehicleReport::fetched (for tests; not in the JSON)
