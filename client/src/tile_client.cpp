@@ -70,6 +70,7 @@ struct TileClient::Impl {
   std::vector<std::string> trusted;  // the fleet's public keys (cfg.fleet_keys); empty: signatures not checked
   std::vector<std::string> current_keys;  // the timestamp keys (cfg.timestamp_keys); empty: the map answer's current version
   bool confirmed_current = false;         // (the thread's) a fresh statement verified this run
+  Backoff recheck;                        // (the thread's) the pace of asking again after a refused statement
 
   // ---- the background thread's own (status reports are read by status())
   ClientStatus reports;
@@ -126,6 +127,7 @@ struct TileClient::Impl {
       : cfg(std::move(c)),
         trusted(std::move(keys)),
         current_keys(std::move(timestamp_keys)),
+        recheck(cfg.retry_min_s, cfg.retry_max_s),
         server(cfg, reports),
         disk(cfg.cache_path, reports),
         pinned(cfg.version),
@@ -326,8 +328,9 @@ struct TileClient::Impl {
   // whether it asked. Throws RequestFailed.
   bool unconfirmed() const { return !current_keys.empty() && !confirmed_current && !cfg.version; }
   bool recheck_current() {
-    if (!unconfirmed() || !server.may_ask()) return false;
-    confirm_current();
+    if (!unconfirmed() || !server.may_ask() || !recheck.allowed()) return false;
+    server.current(current_keys, &recheck);
+    confirmed_current = true;
     return true;
   }
 
@@ -528,7 +531,7 @@ struct TileClient::Impl {
         if (recheck_current()) continue;
         FetchPlan p = plan();
         Outcome o = step(p);
-        if (!o.did) sleep(p.gen, o.network_due || pending_pin.has_value() || unconfirmed());
+        if (!o.did) sleep(p.gen, o.network_due || pending_pin.has_value(), unconfirmed() ? recheck.until() : kNever);
       } catch (const RequestFailed&) {
         // counted and described; the backoff is running and the next step works from memory and disk
       } catch (const std::exception& e) {
@@ -539,13 +542,17 @@ struct TileClient::Impl {
     }
   }
 
-  // Sleeps until the plan changes (or stop, or a new pin), and when work waits for the server,
-  // at most until the backoff ends.
-  void sleep(std::uint64_t plan_gen, bool network_due) {
+  // Sleeps until the plan changes (or stop, or a new pin); when work waits for the server, at most
+  // until the backoff ends; and at most until `recheck_at` (a current-version statement to ask for
+  // again), or the backoff's end if later.
+  static constexpr Backoff::Clock::time_point kNever = Backoff::Clock::time_point::max();
+  void sleep(std::uint64_t plan_gen, bool network_due, Backoff::Clock::time_point recheck_at = kNever) {
     std::unique_lock<std::mutex> lock(mu);
     auto woken = [&] { return stop || pin_request.has_value() || (ready && gen != plan_gen); };
-    if (network_due)
-      wake.wait_until(lock, server.retry_at(), woken);
+    auto until = network_due ? server.retry_at() : kNever;
+    if (recheck_at != kNever) until = std::min(until, std::max(recheck_at, server.retry_at()));
+    if (until != kNever)
+      wake.wait_until(lock, until, woken);
     else
       wake.wait(lock, woken);
   }

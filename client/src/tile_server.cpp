@@ -33,6 +33,12 @@ TileServer::TileServer(const TileClientConfig& cfg, ClientStatus& status)
   throw RequestFailed{};
 }
 
+[[noreturn]] void TileServer::refused(Refused what, const std::string& message) {
+  last_rejected_ = true;
+  status_.refused(what, message);
+  failed(message);
+}
+
 void TileServer::succeeded() {
   backoff_.succeeded();
   status_.request_succeeded();
@@ -87,14 +93,11 @@ std::pair<signing::SignedManifest, std::string> TileServer::signed_manifest(long
     return {std::move(verified), std::move(res.body)};
   } catch (const wire::WireError& e) {
     ++manifest_refusals_;
-    last_rejected_ = true;
-    const std::string message = about + " refused: " + e.what() + "; not using the version, keeping the tiles in use";
-    status_.refused(Refused::manifest, message);
-    failed(message);
+    refused(Refused::manifest, about + " refused: " + e.what() + "; not using the version, keeping the tiles in use");
   }
 }
 
-long long TileServer::current(const std::vector<std::string>& trusted) {
+long long TileServer::current(const std::vector<std::string>& trusted, Backoff* own) {
   const std::string about = "the current version of map " + cfg_.map;
   api::HttpResponse res = get(wire::current_target(cfg_.map, current_refusals_), about,
                               "does the map exist, with a published version, on a server started with --timestamp-key?");
@@ -102,13 +105,16 @@ long long TileServer::current(const std::vector<std::string>& trusted) {
   try {
     const signing::CurrentVersion c = wire::verified_current(res.body, trusted, cfg_.map, now);
     status_.current_confirmed(c.version, c.expires);
+    if (own) own->succeeded();
     return c.version;
   } catch (const wire::WireError& e) {
     ++current_refusals_;
-    last_rejected_ = true;
     const std::string message = about + " refused: " + e.what() + "; starting only on the newest version this vehicle has verified";
+    if (!own) refused(Refused::current, message);
+    last_rejected_ = true;
     status_.refused(Refused::current, message);
-    failed(message);
+    own->failed();
+    throw RequestFailed{};
   }
 }
 
@@ -141,10 +147,7 @@ TileServer::Blob TileServer::blob(const CachedTile& t, long long version, bool b
     TileCloud cloud = wire::verified_tile(res.body, t.hash);
     return Blob{std::move(res.body), std::move(cloud)};
   } catch (const wire::WireError& e) {
-    last_rejected_ = true;
-    const std::string message = about + " refused: " + e.what() + "; never used" + (by_key ? ", left for a while" : ", asking for it by its key next");
-    status_.refused(Refused::tile, message);
-    failed(message);
+    refused(Refused::tile, about + " refused: " + e.what() + "; never used" + (by_key ? ", left for a while" : ", asking for it by its key next"));
   } catch (const Error& e) {
     throw UndecodableTile(e.what());
   }

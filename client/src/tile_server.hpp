@@ -58,7 +58,9 @@ class TileServer {
   // `trusted` (wire::verified_current at the system clock), reported as confirmed. One that does
   // not verify, is another map's or has expired is counted, stands in the status as refused, and
   // fails; the next tries ask by other URLs (".../current?refused=N"), as for signed manifests.
-  long long current(const std::vector<std::string>& trusted);
+  // `own` (a running client's rechecks): a refusal starts that backoff instead of the one all
+  // requests wait for, so that tiles keep coming while a statement is held back.
+  long long current(const std::vector<std::string>& trusted, Backoff* own = nullptr);
   // GET /v1/maps/{map}/roi: the tiles the server lists for the query's disc in `version`.
   std::vector<CachedTile> roi(const RoiQuery& q, long long version, double tile_size);
 
@@ -79,6 +81,8 @@ class TileServer {
  private:
   api::HttpResponse get(const std::string& target, const std::string& about, const std::string& hint_404);
   [[noreturn]] void failed(const std::string& message);
+  // An answer refused: counted, standing in the status as `what`, and failed.
+  [[noreturn]] void refused(Refused what, const std::string& message);
   void succeeded();
   std::string pinned_hint(long long version) const;
 

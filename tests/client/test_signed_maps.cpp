@@ -543,6 +543,11 @@ TEST(TileClient, AHeldBackCurrentVersionIsRefusedOnceItsStatementExpires) {
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
     EXPECT_NE(client.status().last_error.find("may hide a newer version"), std::string::npos);
+    // The tiles of the version it is on keep coming meanwhile (the disk cache held only its manifest).
+    client.set_focus({0, 0}, {0, 0});
+    ASSERT_TRUE(client.wait_for({0, 0}, 25, 30)) << client.status().last_error;
+    EXPECT_EQ(held(client, {0, 0}, 25), within(f.hashes(2), {0, 0}, 25));
+    EXPECT_TRUE(eventually([&] { return client.status().rejected >= 3; })) << "not asked again";
     // ... and asks by other URLs, past a poisoned cache entry.
     bool other_url = false;
     for (const auto& t : proxy.targets()) other_url |= t == "/v1/maps/town/current?refused=1";
