@@ -314,9 +314,10 @@ struct TileClient::Impl {
     return false;
   }
 
-  // With timestamp keys: the version a fresh current-version statement names. Throws RequestFailed.
-  long long confirm_current() {
-    const long long v = server.current(current_keys);
+  // With timestamp keys: the version a fresh current-version statement names, on the backoff every
+  // request waits for or, for a recheck, on `own`. Throws RequestFailed.
+  long long confirm_current(Backoff* own = nullptr) {
+    const long long v = server.current(current_keys, own);
     confirmed_current = true;
     return v;
   }
@@ -329,8 +330,7 @@ struct TileClient::Impl {
   bool unconfirmed() const { return !current_keys.empty() && !confirmed_current && !cfg.version; }
   bool recheck_current() {
     if (!unconfirmed() || !server.may_ask() || !recheck.allowed()) return false;
-    server.current(current_keys, &recheck);
-    confirmed_current = true;
+    confirm_current(&recheck);
     return true;
   }
 

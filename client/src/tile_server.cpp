@@ -101,7 +101,7 @@ long long TileServer::current(const std::vector<std::string>& trusted, Backoff* 
   const std::string about = "the current version of map " + cfg_.map;
   api::HttpResponse res = get(wire::current_target(cfg_.map, current_refusals_), about,
                               "does the map exist, with a published version, on a server started with --timestamp-key?");
-  const std::int64_t now = std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+  const std::int64_t now = signing::unix_now();
   try {
     const signing::CurrentVersion c = wire::verified_current(res.body, trusted, cfg_.map, now);
     status_.current_confirmed(c.version, c.expires);

@@ -2,6 +2,7 @@
 #include "pl/schema/signed_current.hpp"
 
 #include <charconv>
+#include <chrono>
 #include <ctime>
 
 #include "pl/schema/api_rules.hpp"
@@ -98,6 +99,10 @@ void check_current(const CurrentVersion& c, const std::string& map, std::int64_t
   if (c.expires < now - skew_s)
     bad(0, "expired at " + utc(c.expires) + " (this vehicle's clock: " + utc(now) +
                "): an old answer, kept by a cache or replayed by the network, that may hide a newer version; or a clock that is wrong");
+}
+
+std::int64_t unix_now() {
+  return std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 }  // namespace pl::signing

@@ -350,7 +350,7 @@ struct Api::Impl {
                 "and give the vehicles its public key (pl-localize --timestamp-keys)");
     auto m = need_map(name);
     if (!m.current) fail(404, "map " + name + " has no published version yet");
-    const std::int64_t now = std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+    const std::int64_t now = signing::unix_now();
     return revalidated(text(200, signing::sign_current({name, *m.current, now, now + cfg.timestamp_lifetime_s}, *cfg.timestamp_key), route));
   }
 

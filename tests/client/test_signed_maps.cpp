@@ -506,7 +506,7 @@ TEST(TileClient, AHeldBackCurrentVersionIsRefusedOnceItsStatementExpires) {
     c.timestamp_keys = f.dir / "timestamp.pub";
     return c;
   };
-  auto now = [] { return std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count(); };
+  auto now = [] { return pl::signing::unix_now(); };
   {
     TileClient client(config("vehicle.sqlite"));
     ASSERT_TRUE(client.wait_ready(30)) << client.status().last_error;

@@ -338,6 +338,15 @@ TEST(Fleet, AnAlteredTileIsRefusedAndNeverCountedPresent) {
   EXPECT_GT(r.missing_tiles, 0u);
 }
 
+namespace {
+// A fleet that refused what it was served: no vehicle started, the refusals counted, no tile asked for.
+void expect_nothing_used(const FleetReport& r) {
+  EXPECT_EQ(r.vehicles_ready, 0);
+  EXPECT_GT(r.rejected, 0u);
+  EXPECT_EQ(r.tile_requests, 0u);
+}
+}  // namespace
+
 TEST(Fleet, SignedVersionsAreUsedOnlyOnceTheirManifestVerifies) {
   FleetMap& f = fleet_map();
   ServerProcess server(f.db);
@@ -377,9 +386,7 @@ TEST(Fleet, SignedVersionsAreUsedOnlyOnceTheirManifestVerifies) {
   o.server = relay.url();
   o.start_wait_s = 0.3;
   const FleetReport bad = run_fleet(o);
-  EXPECT_EQ(bad.vehicles_ready, 0);
-  EXPECT_GT(bad.rejected, 0u);
-  EXPECT_EQ(bad.tile_requests, 0u);
+  expect_nothing_used(bad);
   EXPECT_GT(bad.stalled_scans, 0u);
 }
 
@@ -505,17 +512,14 @@ TEST(Fleet, WithTimestampKeysTheVersionIsTheOneAFreshStatementNames) {
   EXPECT_EQ(statements.load(), 5);  // one a vehicle, and no JSON manifest asked instead
   EXPECT_GT(good.tiles, 0u);
 
-  const auto now = std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+  const auto now = pl::signing::unix_now();
   const std::string expired = pl::signing::sign_current({"signed", 1, now - 4000, now - 3600}, key);
   Relay holding(server.url(), [&](const std::string& target, std::string& body) {
     if (target.rfind("/v1/maps/signed/current", 0) == 0) body = expired;
   });
   o.server = holding.url();
   o.start_wait_s = 0.3;
-  const FleetReport held = run_fleet(o);
-  EXPECT_EQ(held.vehicles_ready, 0);
-  EXPECT_GT(held.rejected, 0u);
-  EXPECT_EQ(held.tile_requests, 0u);
+  expect_nothing_used(run_fleet(o));
 
   o.fleet_keys.clear();
   EXPECT_NE(pl::test::error_of([&] { run_fleet(o); }).find("--timestamp-keys needs --fleet-keys"), std::string::npos);

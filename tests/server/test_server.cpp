@@ -714,7 +714,7 @@ TEST(Server, CurrentVersionIsSignedFreshWithTheTimestampKey) {
   key.save(f.dir / "timestamp.key");
   ServerProcess server(f.db, {"--timestamp-key", f.dir / "timestamp.key", "--timestamp-lifetime", "120", "--tokens", f.dir / "tokens.txt"});
   HttpClient http(server.url());
-  auto now = [] { return std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count(); };
+  auto now = [] { return pl::signing::unix_now(); };
   auto current = [&] {
     const std::int64_t before = now();
     auto r = http.get("/v1/maps/town/current");

@@ -46,6 +46,7 @@
 #include "pl/common/error.hpp"
 #include "pl/schema/api_rules.hpp"
 #include "pl/schema/http_client.hpp"
+#include "pl/schema/signed_current.hpp"
 #include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 #include "tile_index.hpp"
@@ -628,7 +629,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
   // TileServer::current). One refused (altered, forged, expired) is counted and asked again by
   // another URL; a vehicle without a disk cache has no verified version to fall back on, and waits.
   void on_current(const std::string& body) {
-    const auto now = std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+    const auto now = signing::unix_now();
     try {
       version_ = client::wire::verified_current(body, sh_.current_keys, sh_.o.map, now).version;
     } catch (const client::wire::WireError&) {

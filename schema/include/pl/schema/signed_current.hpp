@@ -66,4 +66,7 @@ SignedCurrent verify_signed_current(std::string_view body, const std::vector<std
 // clock and the servers' may disagree). Throws ManifestError saying which is not so and what to do.
 void check_current(const CurrentVersion& c, const std::string& map, std::int64_t now, std::int64_t skew_s);
 
+// This machine's clock in Unix seconds: the time statements are issued at and checked against.
+std::int64_t unix_now();
+
 }  // namespace pl::signing
