@@ -297,6 +297,7 @@ class Localizer {
   // The last ok scan (or the start pose): where it put the vehicle, when, and its bound.
   bool have_fix_ = false;
   double fix_t_ = 0, fix_protection_m_ = 0;
+  double last_protection_m_ = 0;  // the last scan's protection level
   Eigen::Isometry3d fix_pose_ = Eigen::Isometry3d::Identity();
   std::vector<double> recent_share_, recent_rms_;  // of verified scans, for the relative checks
   std::vector<Eigen::Vector3f> scan_;              // the scan between register_at and fuse
