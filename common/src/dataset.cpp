@@ -552,6 +552,8 @@ Dataset open_dataset(const std::string& dir_in, const DatasetOptions& options) {
   }
   if (!ds.encoder.empty() && !(ds.meta.vehicle.wheel_base_m > 0))
     throw Error(meta_path + ": encoder.csv needs \"vehicle\": {\"wheel_base_m\": ...} in meta.json to turn wheel travel into motion");
+  // The same truth read from a recording (a quaternion written from this rotation) gives the same bits.
+  for (Pose& p : ds.ground_truth.poses) p = canonical_rotation(p);
   return ds;
 }
 

@@ -296,6 +296,8 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
     info.topics.push_back(u);
   }
   ds.recording = std::move(rec);
+  // As open_dataset: the truth's rotations on their grid, the same bits as the folder the recording came from.
+  for (Pose& p : ds.ground_truth.poses) p = canonical_rotation(p);
   return ds;
 }
 

@@ -97,6 +97,36 @@ Eigen::Matrix3d orthonormalize(const Eigen::Matrix3d& r) {
   return out;
 }
 
+Pose canonical_rotation(const Pose& p) {
+  Eigen::Quaterniond q(p.linear());
+  q.normalize();
+  Eigen::Vector4d c = q.coeffs();  // x, y, z, w
+  if (c[3] < 0) c = -c;
+  // The component made from the others is the largest (well conditioned: at least 0.5), the first of
+  // those within 1e-6 of the largest, so that last-bit differences between near ties (a 90 deg turn:
+  // w and z both 0.7071) cannot pick another one. w first.
+  const int order[4] = {3, 0, 1, 2};
+  double largest = 0.0;
+  for (int i : order) largest = std::max(largest, std::abs(c[i]));
+  int big = 3;
+  for (int i : order)
+    if (std::abs(c[i]) >= largest - 1e-6) {
+      big = i;
+      break;
+    }
+  if (c[big] < 0) c = -c;
+  double rest = 0.0;
+  for (int i = 0; i < 4; ++i) {
+    if (i == big) continue;
+    c[i] = std::nearbyint(c[i] * 1e9) * 1e-9;
+    rest += c[i] * c[i];
+  }
+  c[big] = std::sqrt(std::max(0.0, 1.0 - rest));
+  Pose out = p;
+  out.linear() = Eigen::Quaterniond(c[3], c[0], c[1], c[2]).toRotationMatrix();
+  return out;
+}
+
 Pose interpolate(const Pose& a, const Pose& b, double s) {
   Pose p = Pose::Identity();
   Eigen::Quaterniond qa(a.linear()), qb(b.linear());

@@ -1,6 +1,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
 
 #include "pl/common/error.hpp"
 #include "pl/common/pose.hpp"
@@ -133,4 +136,36 @@ TEST(Pose, ScaleMotionStaysOnTheArc) {
     EXPECT_TRUE(pl::scale_motion(m, 0.0).isApprox(pl::Pose::Identity(), 1e-12));
     EXPECT_TRUE(pl::scale_motion(pl::scale_motion(m, 0.5), 2.0).isApprox(m, 1e-9));
   }
+}
+
+// The same rotation read two ways (a matrix, and the quaternion a writer made from it, as a
+// recording of a KITTI drive carries its truth) differs in the last bits; on the grid both are the
+// same bits, a pose already on it stays as it is, and no rotation moves by more than a few
+// nanoradians. Random rotations, and the turns whose quaternion components tie (90 and 180 deg).
+TEST(Pose, CanonicalRotationGivesTheSameBitsFromAMatrixAndItsQuaternion) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> angle(-M_PI, M_PI);
+  std::vector<pl::Pose> poses;
+  for (int i = 0; i < 2000; ++i) poses.push_back(pl::make_pose(1, 2, 3, 0.1 * angle(rng), 0.1 * angle(rng), angle(rng)));
+  for (double yaw : {0.0, M_PI / 2, -M_PI / 2, M_PI, -M_PI, M_PI / 4}) poses.push_back(pl::make_pose(0, 0, 0, 0, 0, yaw));
+  poses.push_back(pl::make_pose(0, 0, 0, M_PI / 2, 0, M_PI / 2));
+  int differed = 0;
+  for (const pl::Pose& p : poses) {
+    // The quaternion written at 17 digits and read back, as a TUM file or a ROS message carries it.
+    const Eigen::Quaterniond q(p.linear());
+    char text[128];
+    std::snprintf(text, sizeof(text), "%.17g %.17g %.17g %.17g", q.w(), q.x(), q.y(), q.z());
+    double w, x, y, z;
+    ASSERT_EQ(std::sscanf(text, "%lf %lf %lf %lf", &w, &x, &y, &z), 4);
+    pl::Pose read = p;
+    read.linear() = Eigen::Quaterniond(w, x, y, z).normalized().toRotationMatrix();
+    differed += read.linear() != p.linear();
+    const pl::Pose a = pl::canonical_rotation(p), b = pl::canonical_rotation(read);
+    EXPECT_EQ(a.linear(), b.linear()) << "yaw " << pl::yaw_of(p);
+    EXPECT_EQ(a.translation(), p.translation());
+    EXPECT_EQ(pl::canonical_rotation(a).linear(), a.linear());
+    EXPECT_LT(pl::rotation_angle(p.inverse() * a), 1e-8);
+    EXPECT_LT((a.linear() * a.linear().transpose() - Eigen::Matrix3d::Identity()).norm(), 1e-14);
+  }
+  EXPECT_GT(differed, 100);  // the case it is for: the two readings do differ in their last bits
 }

@@ -54,6 +54,12 @@ Pose scale_motion(const Pose& d, double f);
 double rotation_angle(const Pose& pose);
 // Projects a nearly-orthonormal 3x3 matrix (e.g. parsed from text rounded to 7 digits) onto SO(3).
 Eigen::Matrix3d orthonormalize(const Eigen::Matrix3d& r);
+// The pose with its rotation on a fixed grid: the unit quaternion, its largest component positive and
+// made from the three others, rounded to 1e-9 (a rotation changes by at most a few nanoradians).
+// Rotations that differ only in their last bits (one read as a rotation matrix, the other as a
+// quaternion written from it) come out bit for bit the same, and applying it again changes nothing,
+// so that a drive gives the same map and poses whichever container carried it.
+Pose canonical_rotation(const Pose& p);
 // Interpolates between two poses (linear translation, slerp rotation), s in [0, 1].
 Pose interpolate(const Pose& a, const Pose& b, double s);
 
