@@ -59,6 +59,8 @@ wait_url() {  # URL: until it answers 200 (15 s at most)
 bash "$SRC/bench/town_map.sh" "$BIN" "$WORK"
 # Signed with the fleet's key, as pl-map publish --signing-key signs.
 [ -f "$WORK/fleet.key" ] || "$BIN/pl-map" key-gen --out "$WORK/fleet" >/dev/null || exit 1
+# The replicas' timestamp key: they sign the current version fresh at each request (GET .../current).
+[ -f "$WORK/timestamp.key" ] || "$BIN/pl-map" key-gen --out "$WORK/timestamp" >/dev/null || exit 1
 if [ ! -f "$WORK/big.sqlite" ]; then
   say "making the large map (once; minutes): $BIN/bench_bigmap --from maps.sqlite --map town --to big.sqlite --name big --km2 25 --signing-key fleet.key"
   rm -f "$WORK/big.sqlite.partial"*
@@ -130,7 +132,7 @@ declare -A RPID RPORT
 start_replica() {  # N
   RPORT[$1]=${RPORT[$1]:-$(free_port)}
   "$BIN/pl-server" --db "$DB" --listen "127.0.0.1:${RPORT[$1]}" --threads 2 --quiet --tokens "$WORK/tokens.txt" \
-    >"$WORK/replica$1.log" 2>&1 &
+    --timestamp-key "$WORK/timestamp.key" >"$WORK/replica$1.log" 2>&1 &
   RPID[$1]=$!
   PIDS+=($!)
   wait_url "http://127.0.0.1:${RPORT[$1]}/readyz" || { say "replica $1 did not come up: $(cat "$WORK/replica$1.log")"; exit 1; }
@@ -327,8 +329,9 @@ stop_cache
 
 # A tampered tile and a tampered manifest injected at the cache: nginx keeps its cache in files, so
 # after the objects are cached their bytes are altered there, in place (same length), as a
-# poisoned cache would hold them. The vehicles check signatures (--fleet-keys): they must refuse
-# the altered manifest and tiles, never use them, and drive on (the client asks by another URL).
+# poisoned cache would hold them. The vehicles check signatures (--fleet-keys) and take the current
+# version from the replicas' signed statement (--timestamp-keys): they must refuse the altered
+# manifest and tiles, never use them, and drive on (the client asks by another URL).
 TAMPER_VEHICLES=${TAMPER_VEHICLES:-$VEHICLES}
 start_nginx
 warm_cache tamper
@@ -369,7 +372,7 @@ real=$(curl -s "http://127.0.0.1:${RPORT[1]}$manifest_url" | sha256sum | cut -c1
   say "[tamper] FAILED to alter the cached manifest"
 saved=$VEHICLES
 VEHICLES=$TAMPER_VEHICLES
-say "[tamper] $BIN/pl-fleet --server (nginx) --map big --vehicles $VEHICLES --fleet-keys fleet.pub ..."
-fleet_run tamper --fleet-keys "$WORK/fleet.pub"
+say "[tamper] $BIN/pl-fleet --server (nginx) --map big --vehicles $VEHICLES --fleet-keys fleet.pub --timestamp-keys timestamp.pub ..."
+fleet_run tamper --fleet-keys "$WORK/fleet.pub" --timestamp-keys "$WORK/timestamp.pub"
 VEHICLES=$saved
 stop_cache

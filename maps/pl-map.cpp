@@ -39,7 +39,7 @@ CLI::Option* db_option(CLI::App& c, std::string& db, bool create) {
 
 void add_build(Tool& tool) {
   struct State {
-    std::string dataset, out, traj_out, report, poses = "gt", deskew = "auto";
+    std::string dataset, out, traj_out, odometry_out, report, poses = "gt", deskew = "auto";
     pl::DatasetOptions topics;
     maps::GloamConfig cfg;
   };
@@ -49,6 +49,8 @@ void add_build(Tool& tool) {
     s->cfg.poses = s->poses == "gt" ? maps::PoseSource::GroundTruth : maps::PoseSource::Lidar;
     s->cfg.deskew = s->deskew == "on" ? maps::Deskew::On : s->deskew == "off" ? maps::Deskew::Off : maps::Deskew::Auto;
     maps::check_gloam_config(s->cfg);
+    if (!s->odometry_out.empty() && s->cfg.poses != maps::PoseSource::Lidar)
+      throw pl::Error("--odometry-out needs --poses lidar (with --poses gt no odometry runs)");
     const pl::Dataset ds = pl::open_dataset(s->dataset, s->topics);
     pl::StageProgress bars;
     maps::GloamObserver observer;
@@ -59,7 +61,7 @@ void add_build(Tool& tool) {
     };
     const maps::GloamResult r = maps::build_gloam_map(ds, s->cfg, observer);
     bars.finish();
-    std::fputs(maps::write_gloam_outputs(r, s->out, s->traj_out, s->report).c_str(), stdout);
+    std::fputs(maps::write_gloam_outputs(r, s->out, s->traj_out, s->report, s->odometry_out).c_str(), stdout);
     return 0;
   });
   maps::MapBuildConfig& merge = s->cfg.merge;
@@ -73,6 +75,9 @@ void add_build(Tool& tool) {
              "by ICP, join the graph (re-solved on each)");
   pl::cli::output_file(c, "--traj-out", s->traj_out, "write the LiDAR pose of every scan, line for line with the dataset (KITTI; "
                        "TUM with the scan times when FILE ends in .tum)");
+  pl::cli::output_file(c, "--odometry-out", s->odometry_out, "(with --poses lidar) write the LiDAR odometry's pose of every scan, "
+                       "before --gps and --loops corrected them (moved as a whole to start where the graph put the first "
+                       "scan), in the format of --traj-out: the drift and the correction from one run");
   pl::cli::output_file(c, "--report", s->report, "write JSON: keyframes, GPS edges and outliers, GPS residuals, loops proposed/"
                        "accepted/rejected (and why), the mean error against ground truth before and after the graph, times");
   pl::cli::choice(c, "--deskew", s->deskew, "correct each scan for the motion during the sweep, timed by azimuth (auto: the LiDAR "

@@ -87,9 +87,11 @@ nlohmann::json graph_report_json(const PoseGraphReport& r) {
 }
 
 // LiDAR odometry over every scan (it needs them all to follow the drive), then the pose graph with
-// the GPS fixes and the loop closures when asked; fills the report. Returns one pose per scan.
+// the GPS fixes and the loop closures when asked; fills the report. Returns one pose per scan, and
+// the odometry's own in `odometry` (before the graph; moved as a whole to start where the graph put
+// the first scan).
 Trajectory lidar_poses(const Dataset& ds, const GloamConfig& cfg, const std::vector<GpsEdge>& gps_edges,
-                       std::optional<GeoPoint>& origin, nlohmann::json& report, const Tell& tell) {
+                       std::optional<GeoPoint>& origin, nlohmann::json& report, const Tell& tell, Trajectory& odometry_out) {
   // Mean translation error against ground truth, when the dataset has it.
   auto mean_error = [&](const Trajectory& t) {
     double sum = 0;
@@ -146,6 +148,7 @@ Trajectory lidar_poses(const Dataset& ds, const GloamConfig& cfg, const std::vec
       for (Pose& p : from_truth.poses) p = ds.ground_truth.poses[0] * p;
     report["mean_error_before_m"] = mean_error(from_truth);
   }
+  odometry_out = placed;
   if (cfg.gps || cfg.loops) {
     PoseGraph graph(placed.poses, information, gps_edges, ds.meta.vehicle.gps_lever_arm, cfg.graph);
     graph.optimize();
@@ -169,6 +172,10 @@ Trajectory lidar_poses(const Dataset& ds, const GloamConfig& cfg, const std::vec
       report["loops"] = loop_report_json(lr, graph);
     }
     placed.poses = graph.poses();
+    // The odometry started in its own frame (the first scan's, with GPS): moved as a whole to start
+    // where the graph put the first scan, so that it lies over the map.
+    const Pose to_graph = placed.poses.front() * odometry_out.poses.front().inverse();
+    for (Pose& p : odometry_out.poses) p = to_graph * p;
     const PoseGraphReport r = graph.report();
     tell.log(format("pose graph: %zu keyframes, %zu GPS edges (%zu outliers), %zu loop edges, GPS residual RMS %.3f m -> %.3f m, "
                     "%d solves, %d iterations, %.0f ms (%s)",
@@ -217,8 +224,9 @@ GloamResult build_gloam_map(const Dataset& ds, const GloamConfig& cfg, const Glo
   if (cfg.poses == PoseSource::GroundTruth)
     result.poses = ds.ground_truth;
   else
-    result.poses = lidar_poses(ds, cfg, gps_edges, result.origin, report, tell);
+    result.poses = lidar_poses(ds, cfg, gps_edges, result.origin, report, tell, result.odometry);
   result.poses.times = ds.times;
+  if (!result.odometry.poses.empty()) result.odometry.times = ds.times;
   result.report_json = report.dump(2) + "\n";
   result.source = source_name(cfg);
 
@@ -237,8 +245,14 @@ GloamResult build_gloam_map(const Dataset& ds, const GloamConfig& cfg, const Glo
 }
 
 std::string write_gloam_outputs(const GloamResult& r, const std::string& map_pcd, const std::string& trajectory,
-                                const std::string& report) {
+                                const std::string& report, const std::string& odometry) {
   std::string out;
+  if (!odometry.empty()) {
+    if (r.odometry.poses.empty()) throw Error("--odometry-out needs --poses lidar (with --poses gt no odometry runs)");
+    const bool tum = odometry.size() > 4 && odometry.compare(odometry.size() - 4, 4, ".tum") == 0;
+    write_trajectory(odometry, r.odometry, tum ? PoseFormat::Tum : PoseFormat::Kitti);
+    out += format("wrote %s: %zu LiDAR poses (lidar odometry, before any pose graph), one per scan\n", odometry.c_str(), r.odometry.poses.size());
+  }
   if (!report.empty()) {
     std::ofstream f(report);
     f << r.report_json;

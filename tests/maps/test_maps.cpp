@@ -342,6 +342,7 @@ TEST(Maps, UnwritableOutputsFailBeforeTheWork) {
       {build + "--out " + no_dir, no_dir},
       {build + "--out " + (dir / "ok.pcd") + " --traj-out " + under_file, under_file},
       {build + "--out " + (dir / "ok.pcd") + " --report " + no_dir, no_dir},
+      {build + "--out " + (dir / "ok.pcd") + " --odometry-out " + no_dir, no_dir},
       {"tile --cloud " + (dir / "ok.pcd") + " --map m --db " + under_file, under_file},
   };
   for (const auto& [args, path] : cases) {

@@ -12,6 +12,7 @@
 #include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/geo.hpp"
+#include "pl/common/pose.hpp"
 #include "pl/maps/pose_graph.hpp"
 #include "test_util.hpp"
 
@@ -286,9 +287,25 @@ TEST(PoseGraph, PlMapBuildWithGpsPlacesTheDriveWithoutGroundTruth) {
   auto lidar = pl::test::run(map + " --poses lidar --traj-out " + (dir / "lidar.txt") + " --out " + (dir / "lidar.pcd"));
   ASSERT_EQ(lidar.exit_code, 0) << lidar.output;
   auto gps = pl::test::run(map + " --poses lidar --gps --traj-out " + (dir / "gps.txt") + " --report " + (dir / "report.json") +
-                           " --out " + (dir / "gps.pcd"));
+                           " --odometry-out " + (dir / "odometry.txt") + " --out " + (dir / "gps.pcd"));
   ASSERT_EQ(gps.exit_code, 0) << gps.output;
   EXPECT_NE(gps.output.find("pose graph:"), std::string::npos) << gps.output;
+
+  // --odometry-out: the odometry's own poses from the same run, before the graph, started where the
+  // graph put the first scan. Started at the first true pose instead, they are the report's "before".
+  const pl::Trajectory odometry = pl::read_trajectory(dir / "odometry.txt"), graph = pl::read_trajectory(dir / "gps.txt");
+  const pl::Dataset drive = pl::open_dataset(dir / "drive");
+  ASSERT_EQ(odometry.size(), 150u);
+  ASSERT_EQ(graph.size(), 150u);
+  EXPECT_LT((odometry.poses[0].translation() - graph.poses[0].translation()).norm(), 1e-6);
+  auto error_from_truth = [&](const pl::Trajectory& t) {
+    const pl::Pose to_truth = drive.ground_truth.poses[0] * t.poses[0].inverse();
+    double sum = 0.0;
+    for (std::size_t i = 0; i < 150; ++i) sum += ((to_truth * t.poses[i]).translation() - drive.ground_truth.poses[i].translation()).norm();
+    return sum / 150.0;
+  };
+  const auto before_m = nlohmann::json::parse(pl::test::read_file(dir / "report.json")).at("mean_error_before_m").get<double>();
+  EXPECT_NEAR(error_from_truth(odometry), before_m, 1e-6);  // the graph's poses so started: 2 mm from it
 
   auto ape = [&](const std::string& est) {
     auto r = pl::test::run(pl::test::tool("pl-eval") + " ape --json --est " + est + " --gt " + (dir / "drive/poses.txt"));
@@ -317,6 +334,9 @@ TEST(PoseGraph, PlMapBuildWithGpsPlacesTheDriveWithoutGroundTruth) {
   auto gt = pl::test::run(map + " --poses gt --gps --out " + (dir / "x.pcd"));
   EXPECT_EQ(gt.exit_code, 2);
   EXPECT_NE(gt.output.find("--gps needs --poses lidar"), std::string::npos) << gt.output;
+  gt = pl::test::run(map + " --poses gt --odometry-out " + (dir / "x.txt") + " --out " + (dir / "x.pcd"));
+  EXPECT_EQ(gt.exit_code, 2);
+  EXPECT_NE(gt.output.find("--odometry-out needs --poses lidar"), std::string::npos) << gt.output;
   auto meta = nlohmann::json::parse(pl::test::read_file(dir / "drive/meta.json"));
   meta.erase("origin");
   pl::test::write_file(dir / "drive/meta.json", meta.dump());

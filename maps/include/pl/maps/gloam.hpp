@@ -54,6 +54,8 @@ struct GloamObserver {
 
 struct GloamResult {
   Trajectory poses;                // the LiDAR pose of every scan, with the scan times
+  Trajectory odometry;             // with LiDAR poses: the odometry's, before the pose graph (moved as a
+                                   // whole to start where the graph put the first scan); empty otherwise
   MapCloud map;                    // in the dataset's world frame (or the first scan's, see origin)
   std::optional<GeoPoint> origin;  // the map frame's geodetic origin; none in the first scan's frame
   std::size_t merged_scans = 0;
@@ -68,10 +70,10 @@ struct GloamResult {
 void check_gloam_config(const GloamConfig& cfg);
 GloamResult build_gloam_map(const Dataset& ds, const GloamConfig& cfg, const GloamObserver& observer = {});
 
-// Writes the report and the trajectory (KITTI, or TUM with the scan times when the name ends in
-// .tum) when their paths are not empty, then the map (PCD with its origin); returns a "wrote ..."
-// line for each.
+// Writes the odometry's trajectory, the report and the trajectory (KITTI, or TUM with the scan times
+// when the name ends in .tum) when their paths are not empty, then the map (PCD with its origin);
+// returns a "wrote ..." line for each. Throws pl::Error for an odometry path when no odometry ran.
 std::string write_gloam_outputs(const GloamResult& r, const std::string& map_pcd, const std::string& trajectory,
-                                const std::string& report);
+                                const std::string& report, const std::string& odometry = {});
 
 }  // namespace pl::maps
