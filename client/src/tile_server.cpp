@@ -33,10 +33,12 @@ TileServer::TileServer(const TileClientConfig& cfg, ClientStatus& status)
   throw RequestFailed{};
 }
 
-[[noreturn]] void TileServer::refused(Refused what, const std::string& message) {
+[[noreturn]] void TileServer::refused(Refused what, const std::string& message, Backoff* own) {
   last_rejected_ = true;
   status_.refused(what, message);
-  failed(message);
+  if (!own) failed(message);
+  own->failed();
+  throw RequestFailed{};
 }
 
 void TileServer::succeeded() {
@@ -109,12 +111,7 @@ long long TileServer::current(const std::vector<std::string>& trusted, Backoff* 
     return c.version;
   } catch (const wire::WireError& e) {
     ++current_refusals_;
-    const std::string message = about + " refused: " + e.what() + "; starting only on the newest version this vehicle has verified";
-    if (!own) refused(Refused::current, message);
-    last_rejected_ = true;
-    status_.refused(Refused::current, message);
-    own->failed();
-    throw RequestFailed{};
+    refused(Refused::current, about + " refused: " + e.what() + "; starting only on the newest version this vehicle has verified", own);
   }
 }
 

@@ -81,8 +81,9 @@ class TileServer {
  private:
   api::HttpResponse get(const std::string& target, const std::string& about, const std::string& hint_404);
   [[noreturn]] void failed(const std::string& message);
-  // An answer refused: counted, standing in the status as `what`, and failed.
-  [[noreturn]] void refused(Refused what, const std::string& message);
+  // An answer refused: counted, standing in the status as `what`, and failed (on `own`, a backoff of
+  // its own, when given: then not as a failed request, which would hold back every other).
+  [[noreturn]] void refused(Refused what, const std::string& message, Backoff* own = nullptr);
   void succeeded();
   std::string pinned_hint(long long version) const;
 

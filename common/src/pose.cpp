@@ -101,7 +101,6 @@ Pose canonical_rotation(const Pose& p) {
   Eigen::Quaterniond q(p.linear());
   q.normalize();
   Eigen::Vector4d c = q.coeffs();  // x, y, z, w
-  if (c[3] < 0) c = -c;
   // The component made from the others is the largest (well conditioned: at least 0.5), the first of
   // those within 1e-6 of the largest, so that last-bit differences between near ties (a 90 deg turn:
   // w and z both 0.7071) cannot pick another one. w first.

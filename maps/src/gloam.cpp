@@ -247,10 +247,14 @@ GloamResult build_gloam_map(const Dataset& ds, const GloamConfig& cfg, const Glo
 std::string write_gloam_outputs(const GloamResult& r, const std::string& map_pcd, const std::string& trajectory,
                                 const std::string& report, const std::string& odometry) {
   std::string out;
+  // KITTI, or TUM with the scan times when the name ends in .tum.
+  auto write_poses = [](const std::string& path, const Trajectory& t) {
+    const bool tum = path.size() > 4 && path.compare(path.size() - 4, 4, ".tum") == 0;
+    write_trajectory(path, t, tum ? PoseFormat::Tum : PoseFormat::Kitti);
+  };
   if (!odometry.empty()) {
     if (r.odometry.poses.empty()) throw Error("--odometry-out needs --poses lidar (with --poses gt no odometry runs)");
-    const bool tum = odometry.size() > 4 && odometry.compare(odometry.size() - 4, 4, ".tum") == 0;
-    write_trajectory(odometry, r.odometry, tum ? PoseFormat::Tum : PoseFormat::Kitti);
+    write_poses(odometry, r.odometry);
     out += format("wrote %s: %zu LiDAR poses (lidar odometry, before any pose graph), one per scan\n", odometry.c_str(), r.odometry.poses.size());
   }
   if (!report.empty()) {
@@ -260,8 +264,7 @@ std::string write_gloam_outputs(const GloamResult& r, const std::string& map_pcd
     out += "wrote " + report + "\n";
   }
   if (!trajectory.empty()) {
-    const bool tum = trajectory.size() > 4 && trajectory.compare(trajectory.size() - 4, 4, ".tum") == 0;
-    write_trajectory(trajectory, r.poses, tum ? PoseFormat::Tum : PoseFormat::Kitti);
+    write_poses(trajectory, r.poses);
     out += format("wrote %s: %zu LiDAR poses (%s), one per scan\n", trajectory.c_str(), r.poses.size(), r.source.c_str());
   }
   write_pcd(map_pcd, r.map.points, r.map.intensity, r.origin);

@@ -906,20 +906,17 @@ FleetReport run_fleet(const FleetOptions& options, const FleetObserver& observer
     if (o.retry_max_s == 0) o.retry_max_s = std::max(tc.retry_max_s, o.retry_min_s);
     if (o.memory_mb == 0) o.memory_mb = tc.memory_mb;
   }
-  if (!o.fleet_keys.empty()) {
+  auto keys = [](const std::string& flag, const std::string& path) {
     try {
-      sh->trusted = signing::load_public_keys(o.fleet_keys);
+      return signing::load_public_keys(path);
     } catch (const Error& e) {
-      throw Error(std::string("--fleet-keys: ") + e.what());
+      throw Error(flag + ": " + e.what());
     }
-  }
+  };
+  if (!o.fleet_keys.empty()) sh->trusted = keys("--fleet-keys", o.fleet_keys);
   if (!o.timestamp_keys.empty()) {
     if (sh->trusted.empty()) throw Error("--timestamp-keys needs --fleet-keys: the versions a statement names current are used signed");
-    try {
-      sh->current_keys = signing::load_public_keys(o.timestamp_keys);
-    } catch (const Error& e) {
-      throw Error(std::string("--timestamp-keys: ") + e.what());
-    }
+    sh->current_keys = keys("--timestamp-keys", o.timestamp_keys);
   }
   // Enough file descriptors for a connection per vehicle.
   rlimit lim{};
