@@ -9,6 +9,7 @@
 #     tried (it must fail with a clear error, then succeed when tried again), and the store checked
 #     whole afterwards.
 #   bash bench/fleet.sh BIN_DIR WORK_DIR [VEHICLES=2000] [SECONDS=60] [TIERS="varnish nginx"] [FAULTS=on]
+# (FAULTS=only: the fault and tamper runs alone; FAULT_SIGNED=on: the fault runs on signed maps.)
 # WORK_DIR keeps the maps between runs (the large one takes minutes to make); the PostgreSQL
 # database is made afresh each run so that the import is timed. Needs varnish, nginx-light, wrk,
 # postgresql (deploy/debian-packages.txt).
@@ -272,6 +273,7 @@ print("fleet: [%s] tile latency p50 %.1f / p99 %.1f / max %.1f ms; ROI p50 %.1f 
 EOF
 }
 
+[ "$FAULTS" = only ] && TIERS=""
 for tier in $TIERS; do
   case $tier in
     varnish) start_varnish ;;
@@ -284,7 +286,13 @@ for tier in $TIERS; do
   stop_cache
 done
 
-[ "$FAULTS" = on ] || exit 0
+[ "$FAULTS" = on ] || [ "$FAULTS" = only ] || exit 0
+
+# The fault runs' vehicles: as above, or with FAULT_SIGNED=on on signed maps (--fleet-keys: the
+# version's signed manifest names every tile, so no ROI query is made and every read can come from
+# the cache).
+FAULT_ARGS=()
+[ "${FAULT_SIGNED:-off}" = on ] && FAULT_ARGS=(--fleet-keys "$WORK/fleet.pub")
 
 # ---------------------------------------------------------------------------------------------
 # Faults, through Varnish (a cache filled afresh, then warmed as above).
@@ -293,7 +301,7 @@ warm_cache "kill a replica"
 # One replica killed a third of the way through (and not brought back during the run).
 ( sleep "$(( SECONDS_RUN / 3 ))"; kill -9 "${RPID[2]}" 2>/dev/null; echo "killed replica 2 at $(date +%T)" >"$WORK/kill.log" ) &
 say "[kill a replica] the same run; replica 2 killed (SIGKILL) at a third of it"
-fleet_run kill-replica
+fleet_run kill-replica "${FAULT_ARGS[@]}"
 wait "${RPID[2]}" 2>/dev/null
 start_replica 2
 stop_cache
@@ -318,7 +326,7 @@ warm_cache "restart PostgreSQL"
 ) &
 restarter=$!
 say "[restart PostgreSQL] the same run; PostgreSQL stopped at a third of it for 5 s, an upload (pl-map push) tried meanwhile and again after"
-fleet_run pg-restart
+fleet_run pg-restart "${FAULT_ARGS[@]}"
 wait $restarter
 sed 's/^/fleet: [restart PostgreSQL] /' "$WORK/pg-restart.log"
 say "[restart PostgreSQL] the upload while down said: $(tail -1 "$WORK/push-down.log")"

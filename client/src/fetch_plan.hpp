@@ -7,9 +7,9 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
-#include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "pl/schema/api_rules.hpp"
@@ -49,11 +49,11 @@ struct FetchPlan {
 
   // The position of `key` in wants (0: nearest); nullopt when the key lies outside every disc.
   std::optional<std::size_t> rank_of(const TileKey& key) const;
-  bool wanted(const TileKey& key) const { return rank_.count(key) > 0; }
+  bool wanted(const TileKey& key) const { return rank_of(key).has_value(); }
 
  private:
   friend FetchPlan make_plan(const TileGrid&, const std::vector<Disc>&, const TileIndex&, std::uint64_t);
-  std::map<TileKey, std::size_t> rank_;
+  std::vector<std::pair<TileKey, std::size_t>> rank_;  // (key, its position in wants), by key
 };
 
 // The plan for `discs` on `grid`, given what the index knows. A disc with unknown keys is asked about

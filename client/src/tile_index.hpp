@@ -4,6 +4,7 @@
 #pragma once
 
 #include <map>
+#include <unordered_map>
 #include <string>
 #include <vector>
 
@@ -35,7 +36,7 @@ class TileIndex {
   bool have_usable() const { return have_usable_; }
 
  private:
-  std::map<TileKey, CachedTile> rows_;
+  std::unordered_map<TileKey, CachedTile, TileKeyHash> rows_;  // looked up for every key of every plan
   std::map<std::string, TileKey> key_of_hash_;  // the first key each hash was seen at
   bool have_usable_ = true;
   bool complete_ = false;

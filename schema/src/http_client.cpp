@@ -90,6 +90,7 @@ HttpClient::HttpClient(const std::string& base, double timeout_s, std::size_t ma
 
 HttpClient::HttpClient(const std::string& base, const HttpOptions& options)
     : impl_(std::make_unique<Impl>()), options_(options) {
+  impl_->buffer.reserve(kHttpReadBuffer);
   std::string rest;
   if (base.rfind("https://", 0) == 0) {
     tls_ = true;

@@ -115,6 +115,30 @@ TEST(FetchPlan, TileWantedByTwoDiscsTakesTheNearerDistance) {
   EXPECT_EQ(p.wants.size(), 9u + 1u);
 }
 
+TEST(FetchPlan, TheOrderOfTheDiscsChangesNoWant) {
+  TileGrid g(10);
+  TileIndex index;
+  // Overlapping discs of different sizes: each shared tile takes the nearer distance whichever disc
+  // names it first, and ties stay in key order.
+  const Disc a{{5, 5}, 25}, b{{31, -4}, 18};
+  const FetchPlan ab = make_plan(g, {a, b}, index), ba = make_plan(g, {b, a}, index);
+  ASSERT_EQ(keys_of(ab), keys_of(ba));
+  // A disc's distance to a tile it touches (infinite when it does not).
+  auto from = [&](const Disc& d, const TileKey& k) {
+    const pl::TileBounds box = g.bounds_of(k);
+    return pl::client::touches(box, d.center, d.radius) ? pl::client::box_distance(box, d.center) : INFINITY;
+  };
+  for (std::size_t i = 0; i < ab.wants.size(); ++i) {
+    const TileKey k = ab.wants[i].key;
+    EXPECT_DOUBLE_EQ(ab.wants[i].distance, ba.wants[i].distance);
+    EXPECT_DOUBLE_EQ(ab.wants[i].distance, std::min(from(a, k), from(b, k)));
+    EXPECT_EQ(ab.rank_of(k), i);
+    if (i > 0 && ab.wants[i].distance == ab.wants[i - 1].distance) {
+      EXPECT_LT(ab.wants[i - 1].key, k);
+    }
+  }
+}
+
 TEST(FetchPlan, AsksOnlyAboutDiscsWithUnknownKeysOneTileWider) {
   TileGrid g(10);
   TileIndex index;

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <unordered_map>
+#include <unordered_set>
 
 #include "pl/common/error.hpp"
 #include "pl/common/tile_key.hpp"
@@ -67,4 +69,26 @@ TEST(TileKey, DiscMatchesBruteForce) {
   }
   EXPECT_EQ(g.keys_in_disc(10, 10, 0).size(), 1u);
   EXPECT_EQ(g.keys_in_disc(20, 20, 0.5).size(), 4u);  // a corner touches four tiles
+}
+
+// TileKeyHash: a map's neighbouring tiles (either sign, both axes, the two coordinates swapped) get
+// distinct hashes that fill an unordered map's buckets evenly, and equal keys hash alike.
+TEST(TileKey, HashSpreadsNeighbouringKeys) {
+  pl::TileKeyHash hash;
+  std::unordered_set<std::size_t> values;
+  std::unordered_map<pl::TileKey, int, pl::TileKeyHash> map;
+  for (int tx = -150; tx < 150; ++tx)
+    for (int ty = -150; ty < 150; ++ty) {
+      values.insert(hash({tx, ty}));
+      map[{tx, ty}] = tx * 1000 + ty;
+    }
+  EXPECT_EQ(values.size(), 300u * 300u);
+  EXPECT_NE(hash({3, 7}), hash({7, 3}));
+  EXPECT_EQ(hash({-5, 12}), hash(pl::TileKey{-5, 12}));
+  EXPECT_EQ(map.at({-150, 149}), -150 * 1000 + 149);
+  std::size_t longest = 0;
+  for (std::size_t b = 0; b < map.bucket_count(); ++b) longest = std::max(longest, map.bucket_size(b));
+  // 90,000 keys in at least as many buckets: a sound hash leaves no bucket longer than a handful
+  // (the key packed without mixing, with the buckets a power of two apart, would stack whole rows).
+  EXPECT_LE(longest, 10u);
 }

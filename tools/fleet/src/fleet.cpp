@@ -37,6 +37,7 @@
 #include <set>
 #include <sstream>
 #include <thread>
+#include <unordered_map>
 
 #include "backoff.hpp"
 #include "fetch_plan.hpp"
@@ -188,7 +189,18 @@ struct Shared {
   std::optional<net::ssl::context> tls;   // https only
   std::vector<std::string> trusted;
   std::vector<std::string> current_keys;  // timestamp keys: "current" only from a fresh signed statement
-  std::map<TileKey, std::string> truth;  // the version's tiles (key -> hash), for stalls
+  std::unordered_map<TileKey, std::string, TileKeyHash> truth;  // the version's tiles (key -> hash), for stalls
+  // Signed manifests already checked, by the content hash of their bytes and the version asked for:
+  // the index they give (null: refused). Every vehicle still fetches the bytes and hashes them; the
+  // check and the index of a body seen before are the same function of the same bytes, so they are
+  // made once and shared (2,000 vehicles parsing a 51,456-tile manifest each took 192 s of the load
+  // generator's one core, and as many indexes took gigabytes).
+  struct Checked {
+    std::shared_ptr<const TileIndex> index;  // null: refused
+    CachedManifest manifest;
+  };
+  std::mutex checked_mutex;
+  std::map<std::pair<std::string, long long>, Checked> checked;
   double tile_size = 0;
   double extent[4] = {0, 0, 0, 0};       // of the version's tiles: min x, min y, max x, max y
   Clock::time_point start, end;
@@ -235,6 +247,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
     rep_.start_s = std::uniform_real_distribution<double>(0, sh.o.ramp_s)(rng_);
     route_.emplace(sh.extent, sh.o.block_m, rep_.speed * sh.o.duration_s + 200, rng_);
     pos_ = route_->start();
+    buffer_.reserve(api::kHttpReadBuffer);
     if (!sh.tls) plain_.emplace(strand_);
   }
 
@@ -338,7 +351,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
   // wait_for's test at the start: every key of the localizer's disc known, each tile there present.
   bool start_complete() const {
     for (const TileKey& k : grid_->keys_in_disc(pos_.x(), pos_.y(), sh_.o.roi_radius_m)) {
-      const CachedTile* row = index_.find(k);
+      const CachedTile* row = index_->find(k);
       if (!row || (row->exists() && !present_.count(k))) return false;
     }
     return true;
@@ -374,7 +387,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
     // plan that stays so (memory drops only tiles outside the discs), so the next look starts there.
     bool advance = true;
     for (std::size_t i = plan_cursor_; i < plan.wants.size(); ++i) {
-      const CachedTile* row = index_.find(plan.wants[i].key);
+      const CachedTile* row = index_->find(plan.wants[i].key);
       if (!row || !row->exists() || present_.count(plan.wants[i].key)) {
         if (advance) plan_cursor_ = i + 1;
         continue;
@@ -404,7 +417,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
       plan_cursor_ = 0;
       return kNothing;
     }
-    plan_ = client::make_plan(*grid_, {{focus_now_, sh_.o.radius_m}, {focus_ahead_, sh_.o.radius_m}}, index_);
+    plan_ = client::make_plan(*grid_, {{focus_now_, sh_.o.radius_m}, {focus_ahead_, sh_.o.radius_m}}, *index_);
     plan_cursor_ = 0;
     planned_now_ = focus_now_, planned_ahead_ = focus_ahead_, planned_index_ = index_gen_;
     return *plan_;
@@ -415,11 +428,19 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
   bool anything_to_do(Clock::time_point now) {
     for (const Eigen::Vector2d& c : {focus_now_, focus_ahead_})
       for (const TileKey& k : grid_->keys_in_disc(c.x(), c.y(), sh_.o.radius_m)) {
-        const CachedTile* row = index_.find(k);
+        const CachedTile* row = index_->find(k);
         if (!row) return true;
         if (row->exists() && !present_.count(k) && !held_back(row->hash, now)) return true;
       }
     return false;
+  }
+
+  TileIndex& index_w() {
+    if (own_ != index_) {
+      own_ = std::make_shared<TileIndex>(*index_);
+      index_ = own_;
+    }
+    return *own_;
   }
 
   bool held_back(const std::string& hash, Clock::time_point now) {
@@ -587,8 +608,8 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
         break;
     }
     if (status != 200) {
-      if (kind_ == Kind::Tile && status == 404 && !index_.complete()) {
-        index_.forget(asked_.key);
+      if (kind_ == Kind::Tile && status == 404 && !index_->complete()) {
+        index_w().forget(asked_.key);
         ++index_gen_;
       }
       return failed("HTTP " + std::to_string(status));
@@ -642,31 +663,46 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
   }
 
   void on_signed(const std::string& body) {
-    signing::SignedManifest sm;
-    try {
-      sm = client::wire::verified_manifest(body, sh_.trusted, sh_.o.map, *version_);
-    } catch (const client::wire::WireError&) {  // altered, or of another version: refused, never used
+    const std::pair<std::string, long long> id{store::content_hash(body), *version_};
+    std::optional<Shared::Checked> known;
+    {
+      std::lock_guard<std::mutex> lock(sh_.checked_mutex);
+      auto it = sh_.checked.find(id);
+      if (it != sh_.checked.end()) known = it->second;
+    }
+    if (!known) {
+      known.emplace();
+      try {
+        const signing::SignedManifest sm = client::wire::verified_manifest(body, sh_.trusted, sh_.o.map, *version_);
+        auto built = std::make_shared<TileIndex>();
+        for (const auto& t : sm.manifest.tiles) built->learn(CachedTile{t.key, t.hash, t.points});
+        built->set_complete();
+        known->index = std::move(built);
+        known->manifest.map = sh_.o.map;
+        known->manifest.version = sm.manifest.version;
+        known->manifest.tile_size = sm.manifest.tile_size;
+      } catch (const client::wire::WireError&) {  // altered, or of another version: refused, never used
+      }
+      std::lock_guard<std::mutex> lock(sh_.checked_mutex);
+      sh_.checked.emplace(id, *known);
+    }
+    if (!known->index) {
       ++manifest_refusals_;
       rejected();
       return failed("refused manifest");
     }
-    for (const auto& t : sm.manifest.tiles) index_.learn(CachedTile{t.key, t.hash, t.points});
-    index_.set_complete();
+    index_ = known->index;
     ++index_gen_;
-    CachedManifest m;
-    m.map = sh_.o.map;
-    m.version = sm.manifest.version;
-    m.tile_size = sm.manifest.tile_size;
-    become_ready(m);
+    become_ready(known->manifest);
   }
 
   void on_roi(const std::string& body) {
     std::vector<CachedTile> listed = client::wire::parse_roi(body, manifest_.version, manifest_.tile_size);
     const auto keys = grid_->keys_in_disc(roi_disc_.center.x(), roi_disc_.center.y(), std::max(0.0, roi_disc_.radius - 0.01));
-    for (CachedTile& r : client::rows_of_answer(std::move(listed), keys, index_)) {
+    for (CachedTile& r : client::rows_of_answer(std::move(listed), keys, *index_)) {
       auto p = present_.find(r.key);
       if (p != present_.end() && p->second.hash != r.hash) drop(p);
-      index_.learn(std::move(r));
+      index_w().learn(std::move(r));
     }
     ++index_gen_;
     backoff_.succeeded();
@@ -686,7 +722,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
       return failed("refused tile bytes");
     }
     by_key_.erase(asked_.hash);
-    const CachedTile* row = index_.find(asked_.key);
+    const CachedTile* row = index_->find(asked_.key);
     if (row && row->hash == asked_.hash) {  // (still the version's tile there)
       const std::size_t size = kBytesPerPoint * static_cast<std::size_t>(std::max(0LL, asked_.points));
       present_[asked_.key] = Held{asked_.hash, size};
@@ -706,7 +742,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
     std::string hash;
     std::size_t size = 0;
   };
-  void drop(std::map<TileKey, Held>::iterator it) {
+  void drop(std::unordered_map<TileKey, Held, TileKeyHash>::iterator it) {
     memory_ -= it->second.size;
     present_.erase(it);
   }
@@ -719,7 +755,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
       if (!client::touches(b, focus_now_, sh_.o.radius_m) && !client::touches(b, focus_ahead_, sh_.o.radius_m))
         unwanted.emplace_back(client::box_distance(b, pos_), k);
     }
-    std::sort(unwanted.begin(), unwanted.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::sort(unwanted.begin(), unwanted.end(), [](const auto& a, const auto& b) { return a.first > b.first || (a.first == b.first && a.second < b.second); });
     for (const auto& [d, k] : unwanted) {
       if (memory_ <= budget) break;
       drop(present_.find(k));
@@ -747,13 +783,16 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
   int current_refusals_ = 0;          // current-version statements refused (likewise)
   CachedManifest manifest_;
   std::optional<TileGrid> grid_;
-  TileIndex index_;
+  // What the vehicle knows of the version. A complete index from a signed manifest is shared with
+  // every vehicle that checked the same bytes; index_w() makes the vehicle's own copy to change.
+  std::shared_ptr<TileIndex> own_ = std::make_shared<TileIndex>();
+  std::shared_ptr<const TileIndex> index_ = own_;
   std::uint64_t index_gen_ = 0;  // bumped at each change of the index
   std::optional<FetchPlan> plan_;
   Eigen::Vector2d planned_now_ = Eigen::Vector2d::Zero(), planned_ahead_ = Eigen::Vector2d::Zero();
   std::uint64_t planned_index_ = 0;
   std::size_t plan_cursor_ = 0;  // in plan_->wants: where the next look for a tile to fetch starts
-  std::map<TileKey, Held> present_;
+  std::unordered_map<TileKey, Held, TileKeyHash> present_;
   std::size_t memory_ = 0;
   std::set<std::string> by_key_;
   std::map<std::string, Clock::time_point> held_;

@@ -2,6 +2,7 @@
 // half-open box [tx*size, (tx+1)*size) x [ty*size, (ty+1)*size).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -13,6 +14,17 @@ struct TileKey {
   bool operator==(const TileKey& o) const { return tx == o.tx && ty == o.ty; }
   bool operator!=(const TileKey& o) const { return !(*this == o); }
   bool operator<(const TileKey& o) const { return tx != o.tx ? tx < o.tx : ty < o.ty; }
+};
+
+// For unordered containers of keys: both coordinates in one 64-bit word, mixed (splitmix64's
+// finalizer) so that neighbouring tiles spread over the buckets.
+struct TileKeyHash {
+  std::size_t operator()(const TileKey& k) const {
+    std::uint64_t x = (std::uint64_t{static_cast<std::uint32_t>(k.tx)} << 32) | static_cast<std::uint32_t>(k.ty);
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+    return static_cast<std::size_t>(x ^ (x >> 31));
+  }
 };
 
 struct TileBounds {
