@@ -9,7 +9,8 @@
 #     tried (it must fail with a clear error, then succeed when tried again), and the store checked
 #     whole afterwards.
 #   bash bench/fleet.sh BIN_DIR WORK_DIR [VEHICLES=2000] [SECONDS=60] [TIERS="varnish nginx"] [FAULTS=on]
-# (FAULTS=only: the fault and tamper runs alone; FAULT_SIGNED=on: the fault runs on signed maps.)
+# (FAULTS=only: the fault and tamper runs alone; FAULTS=tamper: the tamper run alone; FAULT_SIGNED=on:
+# the fault runs on signed maps.)
 # WORK_DIR keeps the maps between runs (the large one takes minutes to make); the PostgreSQL
 # database is made afresh each run so that the import is timed. Needs varnish, nginx-light, wrk,
 # postgresql (deploy/debian-packages.txt).
@@ -273,7 +274,7 @@ print("fleet: [%s] tile latency p50 %.1f / p99 %.1f / max %.1f ms; ROI p50 %.1f 
 EOF
 }
 
-[ "$FAULTS" = only ] && TIERS=""
+{ [ "$FAULTS" = only ] || [ "$FAULTS" = tamper ]; } && TIERS=""
 for tier in $TIERS; do
   case $tier in
     varnish) start_varnish ;;
@@ -286,7 +287,7 @@ for tier in $TIERS; do
   stop_cache
 done
 
-[ "$FAULTS" = on ] || [ "$FAULTS" = only ] || exit 0
+[ "$FAULTS" = on ] || [ "$FAULTS" = only ] || [ "$FAULTS" = tamper ] || exit 0
 
 # The fault runs' vehicles: as above, or with FAULT_SIGNED=on on signed maps (--fleet-keys: the
 # version's signed manifest names every tile, so no ROI query is made and every read can come from
@@ -296,6 +297,7 @@ FAULT_ARGS=()
 
 # ---------------------------------------------------------------------------------------------
 # Faults, through Varnish (a cache filled afresh, then warmed as above).
+if [ "$FAULTS" != tamper ]; then
 start_varnish
 warm_cache "kill a replica"
 # One replica killed a third of the way through (and not brought back during the run).
@@ -334,6 +336,7 @@ say "[restart PostgreSQL] the upload again said: $(tail -1 "$WORK/push-up.log")"
 "$BIN/pl-map" list --db "$DB" --map yard | sed 's/^/fleet: [restart PostgreSQL] store: /'
 "$BIN/pl-map" check --db "$DB" 2>&1 | sed 's/^/fleet: [restart PostgreSQL] /'
 stop_cache
+fi
 
 # A tampered tile and a tampered manifest injected at the cache: nginx keeps its cache in files, so
 # after the objects are cached their bytes are altered there, in place (same length), as a

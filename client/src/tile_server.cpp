@@ -33,9 +33,13 @@ TileServer::TileServer(const TileClientConfig& cfg, ClientStatus& status)
   throw RequestFailed{};
 }
 
-[[noreturn]] void TileServer::refused(Refused what, const std::string& message, Backoff* own) {
+[[noreturn]] void TileServer::refused(Refused what, const std::string& message, Backoff* own, bool other_url_next) {
   last_rejected_ = true;
   status_.refused(what, message);
+  if (other_url_next) {  // altered on the way, not the server failing: the other URL is asked at once
+    if (!own) status_.request_failed(message + " (asking again by another URL now)");
+    throw RequestFailed{};
+  }
   if (!own) failed(message);
   own->failed();
   throw RequestFailed{};
@@ -95,7 +99,8 @@ std::pair<signing::SignedManifest, std::string> TileServer::signed_manifest(long
     return {std::move(verified), std::move(res.body)};
   } catch (const wire::WireError& e) {
     ++manifest_refusals_;
-    refused(Refused::manifest, about + " refused: " + e.what() + "; not using the version, keeping the tiles in use");
+    refused(Refused::manifest, about + " refused: " + e.what() + "; not using the version, keeping the tiles in use", nullptr,
+            manifest_refusals_ == 1);
   }
 }
 
@@ -111,7 +116,8 @@ long long TileServer::current(const std::vector<std::string>& trusted, Backoff* 
     return c.version;
   } catch (const wire::WireError& e) {
     ++current_refusals_;
-    refused(Refused::current, about + " refused: " + e.what() + "; starting only on the newest version this vehicle has verified", own);
+    refused(Refused::current, about + " refused: " + e.what() + "; starting only on the newest version this vehicle has verified", own,
+            current_refusals_ == 1);
   }
 }
 
@@ -144,7 +150,8 @@ TileServer::Blob TileServer::blob(const CachedTile& t, long long version, bool b
     TileCloud cloud = wire::verified_tile(res.body, t.hash);
     return Blob{std::move(res.body), std::move(cloud)};
   } catch (const wire::WireError& e) {
-    refused(Refused::tile, about + " refused: " + e.what() + "; never used" + (by_key ? ", left for a while" : ", asking for it by its key next"));
+    refused(Refused::tile, about + " refused: " + e.what() + "; never used" + (by_key ? ", left for a while" : ", asking for it by its key next"),
+            nullptr, !by_key);
   } catch (const Error& e) {
     throw UndecodableTile(e.what());
   }

@@ -83,7 +83,10 @@ class TileServer {
   [[noreturn]] void failed(const std::string& message);
   // An answer refused: counted, standing in the status as `what`, and failed (on `own`, a backoff of
   // its own, when given: then not as a failed request, which would hold back every other).
-  [[noreturn]] void refused(Refused what, const std::string& message, Backoff* own = nullptr);
+  // other_url_next: the first refusal of an object, whose next try goes by another URL (another
+  // cache entry): a cache or the network altered it, the server is not failing, so nothing backs
+  // off and the other URL is asked at once. A second refusal backs off as any failure.
+  [[noreturn]] void refused(Refused what, const std::string& message, Backoff* own = nullptr, bool other_url_next = false);
   void succeeded();
   std::string pinned_hint(long long version) const;
 

@@ -338,6 +338,34 @@ TEST(Fleet, AnAlteredTileIsRefusedAndNeverCountedPresent) {
   EXPECT_GT(r.missing_tiles, 0u);
 }
 
+// Altered only at its content-hash URL (one poisoned cache entry): each vehicle refuses it once and
+// asks by the key at once, with no backoff (the server is not failing), and takes the good bytes.
+TEST(Fleet, ATileAlteredAtOneUrlIsTakenByTheOtherAtOnce) {
+  FleetMap& f = fleet_map();
+  ServerProcess server(f.db);
+  const auto truth = f.hashes("town");
+  const pl::TileKey victim{7, 7};
+  const std::string hash = truth.at(victim);
+  Relay relay(server.url(), [&](const std::string& target, std::string& body) {
+    if (target == "/v1/blobs/" + hash && !body.empty()) body[body.size() / 2] ^= 0x20;
+  });
+  FleetOptions o = options(relay.url(), 20, 4.0);
+  o.block_m = 50;
+  o.retry_min_s = 5;  // a backoff would show: no vehicle could ask again within the run
+  o.retry_max_s = 5;
+  const FleetReport r = run_fleet(o);
+  ASSERT_GT(r.rejected, 0u);
+  EXPECT_EQ(r.failures, r.rejected);
+  EXPECT_EQ(r.retries, 0u);  // no request waited for a backoff
+  for (const auto& v : r.per_vehicle) {
+    if (v.rejected == 0) continue;
+    SCOPED_TRACE("vehicle " + std::to_string(v.id));
+    bool took = false;
+    for (const auto& t : v.fetched) took |= t.key == victim && t.hash == hash;
+    EXPECT_TRUE(took);  // refused by hash, then took the good bytes by key
+  }
+}
+
 namespace {
 // A fleet that refused what it was served: no vehicle started, the refusals counted, no tile asked for.
 void expect_nothing_used(const FleetReport& r) {

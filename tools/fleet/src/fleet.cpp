@@ -566,11 +566,13 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
   }
 
   // `why`: a short name of the kind of failure ("HTTP 503", "timeout", "Connection refused", ...).
-  void failed(const std::string& why) {
+  // A failed request: counted, then backed off; `now`: the first refusal of an object, asked again at
+  // once by its other URL (TileServer::refused's other_url_next).
+  void failed(const std::string& why, bool now = false) {
     ++rep_.failures;
     ++failure_kinds_[why];
     sh_.failures.fetch_add(1, std::memory_order_relaxed);
-    backoff_.failed();
+    if (!now) backoff_.failed();
     done();
   }
 
@@ -656,7 +658,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
     } catch (const client::wire::WireError&) {
       ++current_refusals_;
       rejected();
-      return failed("refused current version");
+      return failed("refused current version", current_refusals_ == 1);
     }
     backoff_.succeeded();
     done();
@@ -689,7 +691,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
     if (!known->index) {
       ++manifest_refusals_;
       rejected();
-      return failed("refused manifest");
+      return failed("refused manifest", manifest_refusals_ == 1);
     }
     index_ = known->index;
     ++index_gen_;
@@ -719,7 +721,7 @@ class Vehicle : public std::enable_shared_from_this<Vehicle> {
       } else {
         by_key_.insert(asked_.hash);
       }
-      return failed("refused tile bytes");
+      return failed("refused tile bytes", !asked_by_key_);
     }
     by_key_.erase(asked_.hash);
     const CachedTile* row = index_->find(asked_.key);
