@@ -312,27 +312,41 @@ TEST(Fleet, AStoppedServerStallsTheVehiclesWhichRecoverWhenItIsBack) {
   }
 }
 
-TEST(Fleet, AnAlteredTileIsRefusedAndNeverCountedPresent) {
-  FleetMap& f = fleet_map();
-  ServerProcess server(f.db);
-  const auto truth = f.hashes("town");
-  // The tile in the middle of the map, altered by both its URLs.
+namespace {
+// The tile in the middle of the town map with one byte of its answers flipped by a relay before a
+// real server: at its content-hash URL only, or at its key's URL too. 20 vehicles drive over it.
+struct AlteredTile {
+  explicit AlteredTile(bool by_key_too)
+      : f(fleet_map()),
+        server(f.db),
+        hash(f.hashes("town").at(victim)),
+        relay(server.url(), [this, by_key_too](const std::string& target, std::string& body) {
+          if ((target == "/v1/blobs/" + hash || (by_key_too && target == by_key)) && !body.empty()) body[body.size() / 2] ^= 0x20;
+        }) {}
+  FleetOptions fleet_options() {
+    FleetOptions o = options(relay.url(), 20, 4.0);
+    o.block_m = 50;
+    return o;
+  }
   const pl::TileKey victim{7, 7};
-  const std::string hash = truth.at(victim);
   const std::string by_key = "/v1/maps/town/versions/1/tiles/7/7";
-  Relay relay(server.url(), [&](const std::string& target, std::string& body) {
-    if ((target == "/v1/blobs/" + hash || target == by_key) && !body.empty()) body[body.size() / 2] ^= 0x20;
-  });
-  FleetOptions o = options(relay.url(), 20, 4.0);
-  o.block_m = 50;
-  const FleetReport r = run_fleet(o);
+  FleetMap& f;
+  ServerProcess server;
+  const std::string hash;
+  Relay relay;
+};
+}  // namespace
+
+TEST(Fleet, AnAlteredTileIsRefusedAndNeverCountedPresent) {
+  AlteredTile a(true);  // altered by both its URLs
+  const FleetReport r = run_fleet(a.fleet_options());
   EXPECT_GT(r.rejected, 0u);
   EXPECT_EQ(r.failures, r.rejected);  // nothing else went wrong
   std::size_t asked_by_key = 0;
-  for (const auto& t : relay.targets()) asked_by_key += t == by_key;
+  for (const auto& t : a.relay.targets()) asked_by_key += t == a.by_key;
   EXPECT_GT(asked_by_key, 0u);  // refused by hash, asked for by key next (another cache entry)
   for (const auto& v : r.per_vehicle)
-    for (const auto& t : v.fetched) EXPECT_FALSE(t.key == victim) << "vehicle " << v.id << " took the altered tile";
+    for (const auto& t : v.fetched) EXPECT_FALSE(t.key == a.victim) << "vehicle " << v.id << " took the altered tile";
   // Vehicles that came near it stalled for it.
   EXPECT_GT(r.stalled_scans, 0u);
   EXPECT_GT(r.missing_tiles, 0u);
@@ -341,16 +355,8 @@ TEST(Fleet, AnAlteredTileIsRefusedAndNeverCountedPresent) {
 // Altered only at its content-hash URL (one poisoned cache entry): each vehicle refuses it once and
 // asks by the key at once, with no backoff (the server is not failing), and takes the good bytes.
 TEST(Fleet, ATileAlteredAtOneUrlIsTakenByTheOtherAtOnce) {
-  FleetMap& f = fleet_map();
-  ServerProcess server(f.db);
-  const auto truth = f.hashes("town");
-  const pl::TileKey victim{7, 7};
-  const std::string hash = truth.at(victim);
-  Relay relay(server.url(), [&](const std::string& target, std::string& body) {
-    if (target == "/v1/blobs/" + hash && !body.empty()) body[body.size() / 2] ^= 0x20;
-  });
-  FleetOptions o = options(relay.url(), 20, 4.0);
-  o.block_m = 50;
+  AlteredTile a(false);
+  FleetOptions o = a.fleet_options();
   o.retry_min_s = 5;  // a backoff would show: no vehicle could ask again within the run
   o.retry_max_s = 5;
   const FleetReport r = run_fleet(o);
@@ -361,7 +367,7 @@ TEST(Fleet, ATileAlteredAtOneUrlIsTakenByTheOtherAtOnce) {
     if (v.rejected == 0) continue;
     SCOPED_TRACE("vehicle " + std::to_string(v.id));
     bool took = false;
-    for (const auto& t : v.fetched) took |= t.key == victim && t.hash == hash;
+    for (const auto& t : v.fetched) took |= t.key == a.victim && t.hash == a.hash;
     EXPECT_TRUE(took);  // refused by hash, then took the good bytes by key
   }
 }
