@@ -51,6 +51,10 @@ echo "== global_town: --init global (no pose) at 10 places of the simulated town
 bash "$(dirname "$0")/global_town.sh" "$bin" "$root/build/bench"
 
 echo
+echo "== changes_town: change reports from three vehicles six months later, the tiles they agree changed, scored against pl-sim's truth"
+bash "$(dirname "$0")/changes_town.sh" "$bin" "$root/build/bench/changes_town"
+
+echo
 echo "== localize_kitti00: the whole product on the KITTI 00 trajectory, all 4,541 scans (pl-sim data)"
 bash "$(dirname "$0")/localize_kitti00.sh" "$bin" "$root/build/bench"
 

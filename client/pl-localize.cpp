@@ -4,6 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
 #include <memory>
 
 #include "pl/client/config_fields.hpp"
@@ -201,6 +204,14 @@ int main(int argc, char** argv) {
               "least one", cli::between(0, 100));
   cli::output_file(app, "--out", out, "the fused poses (TUM)")->required();
   cli::output_file(app, "--kitti-out", kitti_out, "one pose per scan (KITTI)");
+  std::string report_out, vehicle = "vehicle", drive_id;
+  double drive_start = -1;
+  cli::output_file(app, "--change-report", report_out, "keep change evidence from the ok scans and write the drive's change "
+                   "report (JSON, what POST /v1/maps/{map}/reports takes; docs/map-updates.md)");
+  app.add_option("--vehicle", vehicle, "the report's vehicle id (drives of one vehicle are not independent evidence)");
+  app.add_option("--drive-id", drive_id, "the report's drive id (default: the drive folder's name and the start time)");
+  cli::number(app, "--drive-start", drive_start, "the drive's start, seconds since 1970, for the report (default: now "
+              "minus the drive's span)", cli::at_least(0))->default_str("");
   cli::output_file(app, "--timing", timing_out, "per-scan CSV: times, pairs, health");
   pl::client::RunLogOptions log_options;
   cli::output_file(app, "--log", log_out, "the run as an MCAP file Foxglove opens: fused poses, scans as registered, the ROI "
@@ -284,6 +295,7 @@ int main(int argc, char** argv) {
     if (db.empty()) cfg.tiles.server = server;
     else cfg.store_path = db;
 
+    cfg.changes.enabled = !report_out.empty();
     pl::client::VehicleLocalizer loc(cfg);
     std::unique_ptr<std::FILE, int (*)(std::FILE*)> timing(timing_out.empty() ? nullptr : std::fopen(timing_out.c_str(), "w"), std::fclose);
     if (!timing_out.empty() && !timing) throw Error("cannot write " + timing_out);
@@ -306,6 +318,31 @@ int main(int argc, char** argv) {
 
     const std::size_t n = replay.scans.size();
     const double span = ds.times[replay.scans.back()] - ds.times[replay.scans.front()];
+    std::size_t report_tiles = 0, report_bytes = 0;
+    if (!report_out.empty()) {
+      pl::schema::ChangeReport rep;
+      rep.map = cfg.tiles.map;
+      rep.version = loc.map_version();
+      rep.vehicle = vehicle;
+      rep.start = drive_start >= 0 ? drive_start : static_cast<double>(std::time(nullptr)) - span;
+      rep.end = rep.start + span;
+      rep.drive = drive_id.empty() ? std::filesystem::path(ds.dir).filename().string() + "-" + std::to_string(static_cast<long long>(rep.start))
+                                   : drive_id;
+      rep.voxel_m = cfg.changes.voxel_m;
+      rep.tile_m = loc.tile_size();
+      rep.tiles = loc.change_evidence();
+      const std::string text = pl::schema::change_report_json(rep);
+      pl::schema::parse_change_report(text);  // what the service will accept (names, ids, bounds)
+      const std::string tmp = report_out + ".partial";
+      {
+        std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+        f << text;
+        if (!f.flush()) throw pl::Error(tmp + ": write failed");
+      }
+      std::filesystem::rename(tmp, report_out);
+      report_tiles = rep.tiles.size();
+      report_bytes = text.size();
+    }
     std::printf("pl-localize: %zu scans of %s, map %s v%lld (%s), %d beams, fov %.0f, odometry %s\n", n, ds.dir.c_str(),
                 cfg.tiles.map.c_str(), loc.map_version(), db.empty() ? server.c_str() : "local store", beams, lc.scan.fov_deg,
                 odometry.c_str());
@@ -322,6 +359,13 @@ int main(int argc, char** argv) {
                   static_cast<unsigned long long>(c.at("/pose")), static_cast<unsigned long long>(c.at("/scan")),
                   static_cast<unsigned long long>(c.at("/map")), static_cast<unsigned long long>(c.at("/gps")), log_out.c_str(),
                   static_cast<double>(log->bytes()) / 1e6);
+    }
+    if (!report_out.empty()) {
+      const auto cs = loc.change_stats();
+      std::printf("  change report: evidence from %zu ok scans (%zu passed over, the next scan waiting; median %.1f ms a scan), "
+                  "%zu tiles, %.1f kB -> %s\n",
+                  cs.scans, cs.skipped, cs.ms.empty() ? 0.0 : pl::percentile(cs.ms, 50), report_tiles,
+                  static_cast<double>(report_bytes) / 1e3, report_out.c_str());
     }
     if (db.empty()) {
       const auto st = loc.tile_status();

@@ -1,7 +1,9 @@
 // pl-map: build maps from drives, cut them into Draco tiles in a versioned SQLite store, publish.
 // The pipelines are in pl_maps (gloam.hpp, import.hpp, catalog.hpp, push.hpp); this is the command line.
 #include <cstdio>
+#include <fstream>
 #include <functional>
+#include <sstream>
 #include <memory>
 #include <optional>
 #include <string>
@@ -14,6 +16,7 @@
 #include "pl/common/text.hpp"
 #include "pl/schema/signed_manifest.hpp"
 #include "pl/maps/catalog.hpp"
+#include "pl/maps/change_detect.hpp"
 #include "pl/maps/gloam.hpp"
 #include "pl/maps/import.hpp"
 #include "pl/maps/push.hpp"
@@ -340,6 +343,58 @@ void add_check(Tool& tool) {
   db_option(c, *db, false);
 }
 
+// Change candidates from change reports (pl-localize --change-report): which tiles independent
+// drives agree changed (pl/maps/change_detect.hpp states the rule).
+void add_changes(Tool& tool) {
+  struct Opts {
+    std::vector<std::string> reports;
+    long long version = 0;
+    std::string out;
+    maps::ChangeRule rule;
+  };
+  auto o = std::make_shared<Opts>();
+  CLI::App& c = tool.command("changes", "which tiles changed, from the change reports of several drives (pl-localize "
+                             "--change-report): a tile is a candidate when independent drives agree (docs/map-updates.md)", [o] {
+    std::vector<pl::schema::ChangeReport> reports;
+    for (const std::string& path : o->reports) {
+      std::ifstream f(path, std::ios::binary);
+      if (!f) throw pl::Error(path + ": cannot read the change report");
+      std::ostringstream text;
+      text << f.rdbuf();
+      try {
+        reports.push_back(pl::schema::parse_change_report(text.str()));
+      } catch (const pl::Error& e) {
+        throw pl::Error(path + ": " + e.what());
+      }
+    }
+    long long version = o->version;
+    if (version == 0)
+      for (const auto& r : reports) version = std::max<long long>(version, r.version);
+    const maps::ChangeSummary s = maps::detect_changes(reports, version, o->rule);
+    std::size_t candidates = 0;
+    for (const auto& t : s.tiles) candidates += t.candidate;
+    std::printf("%zu reports, %zu independent passes against v%lld; %zu tiles seen, %zu change candidates "
+                "(%d of the last %d passes agreeing on %zu voxels or more)\n",
+                s.reports, s.used, version, s.tiles.size(), candidates, o->rule.min_drives, o->rule.window, o->rule.min_cells);
+    if (!o->out.empty()) {
+      std::ofstream f(o->out, std::ios::binary | std::ios::trunc);
+      f << maps::change_summary_csv(s);
+      if (!f.flush()) throw pl::Error(o->out + ": write failed");
+    }
+    return 0;
+  });
+  c.add_option("--reports", o->reports, "change reports (JSON)")->required()->expected(1, -1)->type_name("FILE...")
+      ->check(CLI::ExistingFile);
+  pl::cli::number(c, "--version", o->version, "the map version the reports were made against (default: the newest named)",
+                  pl::cli::at_least(1))->default_str("");
+  pl::cli::output_file(c, "--out", o->out, "the tiles as CSV: tx,ty,passes,agreed,added,removed,candidate,drives");
+  pl::cli::number(c, "--min-drives", o->rule.min_drives, "independent passes that must agree on a voxel", pl::cli::between(1, 100));
+  pl::cli::number(c, "--window", o->rule.window, "... among a tile's last this many passes", pl::cli::between(1, 1000));
+  pl::cli::number(c, "--min-cells", o->rule.min_cells, "agreed voxels for a tile to be a candidate", pl::cli::at_least(1));
+  pl::cli::number(c, "--independent-s", o->rule.independent_s, "drives of one vehicle starting closer than this are one pass, s",
+                  pl::cli::at_least(0));
+}
+
 int main(int argc, char** argv) {
   Tool tool("pl-map", "Build maps from drives, cut them into Draco tiles in a versioned SQLite map store, publish them.");
   add_build(tool);
@@ -350,5 +405,6 @@ int main(int argc, char** argv) {
   add_key_gen(tool);
   add_migrate(tool);
   add_check(tool);
+  add_changes(tool);
   return tool.main(argc, argv);
 }

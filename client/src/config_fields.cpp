@@ -35,7 +35,8 @@ PL_MEMBERS(LidarOdometryConfig, 9);
 PL_MEMBERS(LocalizerConfig, 15);
 PL_MEMBERS(registration::PoseSearch, 7);
 PL_MEMBERS(TileClientConfig, 14);
-PL_MEMBERS(VehicleLocalizerConfig, 14);
+PL_MEMBERS(ChangeEvidenceConfig, 13);
+PL_MEMBERS(VehicleLocalizerConfig, 15);
 #undef PL_MEMBERS
 
 // Appends the settings of one struct under a path prefix.
@@ -224,6 +225,22 @@ void add(Table t, TileClientConfig& c) {
                         "statement names current, or the newest verified; empty: the map answer's current version");
 }
 
+void add(Table t, ChangeEvidenceConfig& c) {
+  FIELD(enabled, "keep change evidence from the ok scans for a change report to the map service");
+  FIELD(delta_m, "a return with no map point this near is new, m");
+  FIELD(voxel_m, "the evidence grid; a scan counts once per voxel, m");
+  FIELD(min_range_m, "returns nearer than this give no evidence, m");
+  FIELD(max_range_m, "returns farther than this give no evidence, m");
+  FIELD(ray_step_m, "a ray's free space is probed this often, m");
+  FIELD(ray_margin_m, "... up to this short of its own return, m");
+  FIELD(pass_radius_m, "a probe this near a map point asks whether the ray passed through it, m");
+  FIELD(cross_radius_m, "... whether it crossed the point's tangent plane this near the point, m");
+  FIELD(min_incidence, "... at |cos| of the ray and the point's normal of at least this (0-1)");
+  FIELD(min_travel_m, "evidence from an ok scan once the sensor moved this far since the last one that gave some, m");
+  FIELD(corridor_m, "what was added within this of the sensor's own path is no evidence (the vehicle drove there), m");
+  FIELD(max_cells_per_tile, "a report's bound: voxels per tile, those with most evidence kept");
+}
+
 void add(Table t, VehicleLocalizerConfig& c) {
   add(t.under("localizer"), c.localizer);
   add(t.under("tiles"), c.tiles);
@@ -238,6 +255,7 @@ void add(Table t, VehicleLocalizerConfig& c) {
   FIELD(start_from_gps, "start at the first scan that has a GPS fix within 0.5 s");
   add(t.under("search"), c.search);
   add(t.under("gps_search"), c.gps_search);
+  add(t.under("changes"), c.changes);
 }
 
 #undef FIELD

@@ -29,6 +29,7 @@ struct ScanJob {
   Scan points;
   std::vector<std::uint16_t> rings;
   std::vector<float> times;
+  std::vector<Eigen::Vector3f> origins;  // after deskew: where the sensor was at each point's firing (scan frame)
 };
 
 enum class StartRequest { None, At, Near, Global };
@@ -43,6 +44,8 @@ struct VehicleLocalizer::Impl {
   long long version = 0;
   GeoPoint origin;
   std::unique_ptr<Localizer> loc;
+  std::unique_ptr<ChangeEvidence> evidence;  // touched by the worker while busy, read when not
+  std::size_t evidence_skipped = 0;
 
   mutable std::mutex m;
   mutable std::condition_variable cv;
@@ -211,6 +214,33 @@ struct VehicleLocalizer::Impl {
       cb(r);
       lk.lock();
     }
+    if (evidence && r.health == Health::Ok && !r.map_outdated && loc->map() && pending) ++evidence_skipped;
+    if (evidence && r.health == Health::Ok && !r.map_outdated && loc->map() && !pending) {
+      lk.unlock();
+      // The returns of the beams and field of view the localizer keeps (a 16-beam vehicle sees what
+      // a 16-beam sensor sees), not thinned: the evidence has its own grid.
+      // Each ray from where the sensor was when it fired (after deskew; a ray from the scan's
+      // origin would cross the gaps between parked cars at the wrong place and seem to pass
+      // through them): the points carry their index through the selection in `intensity` (exact
+      // in a float up to 2^24 points).
+      ScanPrepConfig sc = cfg.localizer.scan;
+      sc.voxel_m = 0;
+      sc.min_range_m = std::max(sc.min_range_m, cfg.changes.min_range_m);
+      sc.max_range_m = std::min(sc.max_range_m, cfg.changes.max_range_m);
+      Scan indexed = job.points;
+      const bool origins = job.origins.size() == indexed.size() && indexed.size() < (std::size_t{1} << 24);
+      if (origins)
+        for (std::size_t i = 0; i < indexed.size(); ++i) indexed[i].intensity = static_cast<float>(i);
+      const Scan kept = prepare_scan(indexed, job.rings, sc);
+      std::vector<Eigen::Vector3f> points, from;
+      points.reserve(kept.size());
+      for (const PointXYZI& p : kept) {
+        points.emplace_back(p.x, p.y, p.z);
+        if (origins) from.push_back(job.origins[static_cast<std::size_t>(p.intensity)]);
+      }
+      evidence->add(r.fused, points, loc->map()->points_map(), from);
+      lk.lock();
+    }
   }
 
   // Each point moved to where the sensor was at the scan's time, by the odometry between its own
@@ -221,11 +251,14 @@ struct VehicleLocalizer::Impl {
     const auto at_scan = odo.at(job.t);
     if (!at_scan) return false;
     const Eigen::Isometry3d inv = at_scan->inverse();
+    if (evidence) job.origins.assign(job.points.size(), Eigen::Vector3f::Zero());
     for (std::size_t i = 0; i < job.points.size(); ++i) {
       const auto at_point = odo.at(job.t + job.times[i]);
       if (!at_point) continue;
       PointXYZI& p = job.points[i];
-      const Eigen::Vector3d q = (inv * *at_point) * Eigen::Vector3d(p.x, p.y, p.z);
+      const Eigen::Isometry3d moved = inv * *at_point;
+      if (evidence) job.origins[i] = moved.translation().cast<float>();
+      const Eigen::Vector3d q = moved * Eigen::Vector3d(p.x, p.y, p.z);
       p.x = static_cast<float>(q.x());
       p.y = static_cast<float>(q.y());
       p.z = static_cast<float>(q.z());
@@ -243,6 +276,7 @@ VehicleLocalizer::VehicleLocalizer(const VehicleLocalizerConfig& cfg) : impl_(st
     throw Error("VehicleLocalizer: lookahead_s, start_wait_s and ready_timeout_s must not be negative");
   if (cfg.max_odometry_samples < 2) throw Error("VehicleLocalizer: max_odometry_samples must be at least 2");
   check_localizer_config(cfg.localizer);  // before the map is opened: a setting's mistake is no map's
+  if (cfg.changes.enabled) cfg.changes.validate();
   if (!cfg.store_path.empty()) {
     m.store = std::make_unique<StoreTiles>(cfg.store_path, cfg.tiles.map, cfg.tiles.version.value_or(0));
     m.tile_size = m.store->tile_size();
@@ -261,6 +295,7 @@ VehicleLocalizer::VehicleLocalizer(const VehicleLocalizerConfig& cfg) : impl_(st
     m.origin = st.origin;
   }
   if (cfg.wheel_base_m > 0) m.drive.emplace(cfg.wheel_base_m);
+  if (cfg.changes.enabled) m.evidence = std::make_unique<ChangeEvidence>(cfg.changes, m.tile_size);
   Impl* raw = impl_.get();
   m.loc = std::make_unique<Localizer>(cfg.localizer, m.tile_size,
                                       [raw](const Eigen::Vector2d& c, double r) { return raw->tiles_near(c, r); });
@@ -369,7 +404,7 @@ void VehicleLocalizer::add_scan(double t, const Scan& points, const std::vector<
     throw Error("VehicleLocalizer::add_scan: " + std::to_string(point_times.size()) + " point times for " +
                 std::to_string(points.size()) + " points");
   std::lock_guard<std::mutex> lk(impl_->m);
-  impl_->pending = ScanJob{t, points, rings, point_times};  // replaces a scan still waiting
+  impl_->pending = ScanJob{t, points, rings, point_times, {}};  // replaces a scan still waiting
   impl_->cv.notify_all();
 }
 
@@ -432,6 +467,23 @@ std::vector<MapTile> VehicleLocalizer::map_tiles() const {
   impl_->cv.wait(lk, [&] { return !impl_->busy; });
   const RoiMap* map = impl_->loc->map();
   return map ? map->held_tiles() : std::vector<MapTile>{};
+}
+
+std::vector<schema::TileChangeEvidence> VehicleLocalizer::change_evidence() const {
+  std::unique_lock<std::mutex> lk(impl_->m);
+  impl_->cv.wait(lk, [&] { return !impl_->busy; });
+  return impl_->evidence ? impl_->evidence->tiles() : std::vector<schema::TileChangeEvidence>{};
+}
+
+VehicleLocalizer::ChangeStats VehicleLocalizer::change_stats() const {
+  std::unique_lock<std::mutex> lk(impl_->m);
+  impl_->cv.wait(lk, [&] { return !impl_->busy; });
+  ChangeStats out;
+  if (!impl_->evidence) return out;
+  out.scans = impl_->evidence->scans_used();
+  out.skipped = impl_->evidence_skipped;
+  out.ms = impl_->evidence->milliseconds();
+  return out;
 }
 
 double VehicleLocalizer::tile_size() const { return impl_->tile_size; }

@@ -22,15 +22,22 @@ registration::Place place_of(const Scan& scan, const Eigen::Isometry3d& pose, co
 }
 
 // The scan's points moved to where the sensor was at its time: the motion between the neighbouring
-// poses, at constant velocity, scaled to one sweep (a drive of one scan: as it is).
-void deskew(Scan& scan, const Trajectory& poses, std::size_t i, double sweep_s) {
+// poses, at constant velocity, scaled to one sweep (a drive of one scan: as it is). Each point timed
+// by `times` (seconds from the scan's time, as the driver gave them) when there is one per point,
+// else by its azimuth: a point just behind the sensor may read an azimuth across the sweep's seam
+// from the one it was fired at and be moved by a whole sweep's motion (the town loop's map held
+// such points 0.6 m off a parked truck's side, and every later drive's rays passed through them).
+void deskew(Scan& scan, const std::vector<float>& times, const Trajectory& poses, std::size_t i, double sweep_s) {
   const std::size_t a = i > 0 ? i - 1 : i, b = i + 1 < poses.size() ? i + 1 : i;
   if (a == b || poses.times.size() != poses.size()) return;
   const double dt = poses.times[b] - poses.times[a];
   if (!(dt > 0)) return;
   const Eigen::Isometry3d sweep = scale_motion(poses.poses[a].inverse() * poses.poses[b], sweep_s / dt);
   std::vector<Eigen::Vector3f> points = to_points(scan);
-  registration::compensate_motion(points, sweep);
+  std::vector<float> shares;
+  if (times.size() == scan.size())
+    for (float t : times) shares.push_back(static_cast<float>(t / sweep_s));
+  registration::compensate_motion(points, sweep, shares);
   for (std::size_t k = 0; k < scan.size(); ++k) scan[k].x = points[k].x(), scan[k].y = points[k].y(), scan[k].z = points[k].z();
 }
 
@@ -75,10 +82,10 @@ MapCloud build_map_from_poses(const Dataset& ds, const Trajectory& poses, const 
   std::size_t last = std::min(cfg.last, ds.size() == 0 ? 0 : ds.size() - 1);
   std::size_t total = last >= cfg.first ? (last - cfg.first) / cfg.every + 1 : 0, done = 0;
   for (std::size_t i = cfg.first; i <= last && i < ds.size(); i += cfg.every) {
-    const Frame frame = ds.load_frame(i, prep.beams > 0 && prep.beams < prep.sensor_beams);
+    Frame frame = ds.load_frame(i, prep.beams > 0 && prep.beams < prep.sensor_beams);
+    if (cfg.deskew) deskew(frame.scan, frame.times, poses, i, cfg.sweep_s);  // before points are dropped: one time per point
     Scan kept = prepare_scan(frame.scan, frame.rings, prep);
     const Pose& pose = poses.poses[i];
-    if (cfg.deskew) deskew(kept, poses, i, cfg.sweep_s);
     for (const auto& p : kept) acc.add(pose * Eigen::Vector3d(p.x, p.y, p.z), p.intensity);
     if (cfg.place_spacing_m > 0 &&
         (places.empty() || (places.back().position - pose.translation()).norm() >= cfg.place_spacing_m))

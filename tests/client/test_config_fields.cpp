@@ -30,7 +30,7 @@ using pl::client::detail::member_count;
 
 // The total, stated so that a change to it is a visible decision. What it is made of is checked
 // struct by struct below (Coverage).
-constexpr std::size_t kFields = 144;
+constexpr std::size_t kFields = 157;
 
 std::vector<std::string> texts(VehicleLocalizerConfig& cfg) {
   std::vector<std::string> out;
@@ -132,6 +132,7 @@ TEST(ConfigFields, EachMemberLiesInTheStructItsPathNames) {
       part("tiles/", c.tiles),
       part("search/", c.search),
       part("gps_search/", c.gps_search),
+      part("changes/", c.changes),
       part("", c),
   };
   for (const auto& f : pl::client::config_fields(c)) {
@@ -185,8 +186,9 @@ TEST(ConfigFields, CoverEveryMemberOfEveryConfigStruct) {
       {"tiles/", member_count<TileClientConfig>(), 1},  // version: left out (std::optional)
       {"search/", member_count<PoseSearch>(), 0},
       {"gps_search/", member_count<PoseSearch>(), 0},
-      // localizer, tiles, search, gps_search; base_from_lidar and base_from_antenna left out (Eigen)
-      {"", member_count<VehicleLocalizerConfig>(), 6},
+      {"changes/", member_count<ChangeEvidenceConfig>(), 0},
+      // localizer, tiles, search, gps_search, changes; base_from_lidar and base_from_antenna left out (Eigen)
+      {"", member_count<VehicleLocalizerConfig>(), 7},
   };
   std::size_t total = 0;
   for (const auto& f : folders) {

@@ -17,3 +17,5 @@ target_link_libraries(make_fuzz_seeds PRIVATE liblzf::liblzf)
 # The places of a map version (registration/src/place_index.cpp).
 pl_add_fuzzer(places SOURCES fuzz_places.cpp LIBS pl_registration)
 target_link_libraries(make_fuzz_seeds PRIVATE pl_registration)
+# A vehicle's change report as the map service parses it (schema/src/change_report.cpp).
+pl_add_fuzzer(change_report SOURCES fuzz_change_report.cpp LIBS pl_schema pl_common)

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -295,6 +296,50 @@ TEST(SimWorld, EpochOneChangesTheMovableShareAndNothingStatic) {
   EXPECT_GT(added, 0u);
 }
 
+TEST(SimWorld, ChangesBetweenEpochsListWhatDiffersAndNothingElse) {
+  const SimTrajectory& t = loop();
+  WorldConfig c0;
+  c0.seed = 7;
+  WorldConfig c1 = c0;
+  c1.epoch = 1;
+  const World w0 = build_world(t, 0.0, t.end_time(), c0), w1 = build_world(t, 0.0, t.end_time(), c1);
+  EXPECT_TRUE(changes_between(w0, w0).empty());
+  const std::vector<ObjectChange> changes = changes_between(w0, w1);
+  std::map<std::uint32_t, const WorldObject*> old, now;
+  for (const auto& o : w0.objects) old[o.id] = &o;
+  for (const auto& o : w1.objects) now[o.id] = &o;
+  std::map<ObjectChange::Kind, std::size_t> kinds;
+  std::map<std::uint32_t, bool> listed;
+  for (const ObjectChange& c : changes) {
+    ++kinds[c.kind];
+    listed[c.id] = true;
+    EXPECT_TRUE(is_movable(c.cls)) << class_name(c.cls);
+    EXPECT_EQ(c.has_before, c.kind != ObjectChange::Kind::Added);
+    EXPECT_EQ(c.has_after, c.kind != ObjectChange::Kind::Removed);
+    if (c.kind == ObjectChange::Kind::Moved) {
+      EXPECT_GT((c.after.centre - c.before.centre).norm(), 1.9f);
+    }
+    if (c.kind == ObjectChange::Kind::Grown) {
+      EXPECT_GT(c.after.half.x(), c.before.half.x());
+    }
+  }
+  // Every thing not listed is the same in both epochs.
+  for (const auto& [id, o] : old) {
+    if (listed.count(id)) continue;
+    ASSERT_TRUE(now.count(id)) << id;
+    EXPECT_TRUE(now[id]->centre == o->centre && now[id]->half == o->half) << id;
+  }
+  EXPECT_GT(kinds[ObjectChange::Kind::Removed] + kinds[ObjectChange::Kind::Moved], 0u);
+  EXPECT_GT(kinds[ObjectChange::Kind::Added], 0u);
+  EXPECT_GT(kinds[ObjectChange::Kind::Grown], 0u);
+  // The CSV: a header and a row per change, the missing footprint's columns empty.
+  const std::string csv = changes_csv(changes, std::vector<std::uint64_t>(changes.size(), 5));
+  EXPECT_EQ(csv.substr(0, csv.find('\n')), "id,class,change,x0,y0,half_x0,half_y0,yaw0,x1,y1,half_x1,half_y1,yaw1,rays_seeing");
+  EXPECT_EQ(static_cast<std::size_t>(std::count(csv.begin(), csv.end(), '\n')), changes.size() + 1);
+  EXPECT_NE(csv.find(",added,,,,,,"), std::string::npos);
+  EXPECT_THROW(changes_csv(changes, {}), pl::Error);
+}
+
 TEST(SimWorld, SameSeedSameWorldOtherSeedOtherWorld) {
   const SimTrajectory& t = loop();
   WorldConfig c;
@@ -334,6 +379,21 @@ TEST(SimDrive, SameSeedSameBytesWhateverTheThreads) {
   o.world.seed = 2;
   simulate(o);
   EXPECT_NE(pl::test::read_file(dir / "a/velodyne/000000.bin"), pl::test::read_file(dir / "c/velodyne/000000.bin"));
+  // Another drive in the same world (another vehicle, another day): other traffic and noise, the
+  // same things; the drive seed given as the world's is the default.
+  o.world.seed = 1;
+  o.drive_seed = 1;
+  o.out_dir = dir / "d";
+  simulate(o);
+  EXPECT_EQ(pl::test::read_file(dir / "a/velodyne/000003.bin"), pl::test::read_file(dir / "d/velodyne/000003.bin"));
+  o.drive_seed = 5;
+  o.out_dir = dir / "e";
+  simulate(o);
+  EXPECT_NE(pl::test::read_file(dir / "a/velodyne/000003.bin"), pl::test::read_file(dir / "e/velodyne/000003.bin"));
+  const std::string objects_a = pl::test::read_file(dir / "a/objects.csv"), objects_e = pl::test::read_file(dir / "e/objects.csv");
+  EXPECT_EQ(objects_a.substr(0, objects_a.find('\n')), "id,class,x,y,half_x,half_y,yaw,base,height,returns,returns_40m");
+  EXPECT_EQ(std::count(objects_a.begin(), objects_a.end(), '\n'), std::count(objects_e.begin(), objects_e.end(), '\n'));
+  EXPECT_FALSE(std::filesystem::exists(dir / "a/changes.csv")) << "epoch 0 has no changes";
   // The dataset reader takes it as is.
   pl::Dataset ds = pl::open_dataset(dir / "a");
   EXPECT_EQ(ds.size(), 4u);
@@ -453,6 +513,17 @@ TEST(SimDrive, CommandLine) {
   auto info = pl::test::run(pl::test::tool("pl-dataset") + " info " + (dir / "d"));
   EXPECT_EQ(info.exit_code, 0) << info.output;
   EXPECT_NE(info.output.find("RS-LiDAR-16, 16 in the table; rings found per scan: median 16"), std::string::npos) << info.output;
+  // Six months later, another vehicle: what changed, with the rays of this drive that saw it.
+  auto later = pl::test::run(pl::test::tool("pl-sim") + " --route loop --frames 30 --lidar vlp16 --epoch 1 --drive-seed 3 --out " +
+                             (dir / "l"));
+  ASSERT_EQ(later.exit_code, 0) << later.output;
+  EXPECT_NE(later.output.find("changed since epoch 0:"), std::string::npos) << later.output;
+  const std::string changes = pl::test::read_file(dir / "l/changes.csv");
+  EXPECT_EQ(changes.rfind("id,class,change,", 0), 0u);
+  EXPECT_GT(std::count(changes.begin(), changes.end(), '\n'), 5);
+  const std::string seen = pl::test::read_file(dir / "l/changes_seen.csv");
+  EXPECT_EQ(seen.rfind("id,x,y,rays\n", 0), 0u);
+  EXPECT_GT(std::count(seen.begin(), seen.end(), '\n'), 1) << "30 scans saw some change";
   auto bad = pl::test::run(pl::test::tool("pl-sim") + " --route ring --out " + (dir / "e"));
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.output.find("--route takes loop or estate"), std::string::npos) << bad.output;

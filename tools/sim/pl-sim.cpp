@@ -27,6 +27,8 @@ int main(int argc, char** argv) {
   pl::cli::output_folder(app, "--out", o.out_dir, "where to write the dataset")->required();
   pl::cli::number(app, "--frames", o.frames, "scans to write; 0: the whole route", pl::cli::at_least(0));
   pl::cli::number(app, "--seed", o.world.seed, "world and noise seed; same seed and options, same bytes", pl::cli::at_least(0));
+  pl::cli::number(app, "--drive-seed", o.drive_seed, "this drive's own randomness (traffic, sensor noise, GPS): another vehicle "
+                  "or another day in the same world; default: --seed", pl::cli::at_least(0));
   pl::cli::choice(app, "--world", world, "world preset (default: town, estate for --route estate)", {"town", "estate"});
   pl::cli::number(app, "--epoch", o.world.epoch, "1: the same place six months later", pl::cli::between(0, 1));
   std::string backdrop = "on";
@@ -79,6 +81,7 @@ int main(int argc, char** argv) {
                 o.calibration_error);
     std::printf("  encoder: %zu samples at 100 Hz; gps: %zu fixes (%s)\n", r.encoder_samples, r.gps_fixes, r.gps_mix.c_str());
     if (o.traffic.count) std::printf("  traffic: %d agents\n", o.traffic.count);
+    if (o.world.epoch >= 1) std::printf("  changed since epoch 0: %zu things (changes.csv)\n", r.changes);
     if (o.truth.scale > 0) std::printf("  ground truth: as a GNSS/INS reports it (errors x%g)\n", o.truth.scale);
     if (!o.preview.empty()) std::printf("  preview: %s\n", o.preview.c_str());
     if (!o.map_out.empty()) std::printf("  reference cloud: %s (%zu points)\n", o.map_out.c_str(), r.map_points);

@@ -11,6 +11,7 @@
 #include "pl/common/cloud_io.hpp"
 #include "pl/common/error.hpp"
 #include "pl/eval/ape.hpp"
+#include "pl/eval/changes.hpp"
 #include "pl/eval/figures.hpp"
 #include "pl/eval/kitti_metrics.hpp"
 #include "pl/eval/map_accuracy.hpp"
@@ -243,6 +244,23 @@ void add_topview(cli::Tool& tool, std::ostream& out) {
   c.footer(kTopviewFooter);
 }
 
+void add_changes(cli::Tool& tool, std::ostream& out) {
+  struct Args {
+    std::string truth, candidates;
+    ChangeTruthOptions options;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App& c = tool.command("changes", "score change candidates (pl-map changes --out) per tile against pl-sim's changes.csv", [a, &out] {
+    out << change_score_text(score_changes(a->truth, a->candidates, a->options));
+    return 0;
+  });
+  c.add_option("--truth", a->truth, "pl-sim's changes.csv of an epoch-1 drive (changes_seen.csv beside it is read too)")->required()->type_name("FILE");
+  c.add_option("--candidates", a->candidates, "pl-map changes --out")->required()->type_name("FILE");
+  cli::number(c, "--tile", a->options.tile_m, "the map's tile size, m", cli::above(0));
+  cli::number(c, "--min-rays", a->options.min_rays, "a tile truly changed where this many of the drive's probe rays saw a "
+              "change in it (changes_seen.csv, beside changes.csv)", cli::at_least(1));
+}
+
 }  // namespace
 
 void add_commands(cli::Tool& tool, std::ostream& out) {
@@ -251,6 +269,7 @@ void add_commands(cli::Tool& tool, std::ostream& out) {
   add_timing(tool, out);
   add_map(tool, out);
   add_topview(tool, out);
+  add_changes(tool, out);
   tool.app().footer("Bad input exits with code 2 and a message naming the file, the line and the fix.");
 }
 

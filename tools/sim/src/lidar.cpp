@@ -57,7 +57,7 @@ Scan cast_scan(const LidarModel& lidar, const Pose& sensor, const Scene& world, 
 }
 
 Scan cast_sweep(const LidarModel& lidar, const std::function<Pose(double share)>& sensor_at, const Scene& world,
-                const Scene* moving, std::mt19937_64& rng, std::vector<float>* shares) {
+                const Scene* moving, std::mt19937_64& rng, std::vector<float>* shares, std::vector<std::uint32_t>* objects) {
   const int rings = static_cast<int>(lidar.vertical_deg.size());
   const int steps = lidar.azimuth_steps;
   const double step = 2.0 * M_PI / steps;
@@ -89,6 +89,7 @@ Scan cast_sweep(const LidarModel& lidar, const std::function<Pose(double share)>
     shares->clear();
     shares->reserve(scan.capacity());
   }
+  if (objects) objects->clear();
   for (int r = 0; r < rings; ++r) {
     const double el = lidar.vertical_deg[r] * M_PI / 180.0;
     const LaserError err = lidar.laser_errors.empty() ? LaserError{} : lidar.laser_errors[r];
@@ -108,6 +109,7 @@ Scan cast_sweep(const LidarModel& lidar, const std::function<Pose(double share)>
       Ray ray{origin[k], rot[k] * d_true, max_range};
       Hit hit;
       const ShapeInfo* info = nullptr;
+      bool traffic = false;
       if (world.bvh.intersect(ray, hit)) {
         info = &world.info[world.bvh.primitives()[hit.primitive].object];
         ray.t_max = hit.t;
@@ -117,6 +119,7 @@ Scan cast_sweep(const LidarModel& lidar, const std::function<Pose(double share)>
         if (moving->bvh.intersect(ray, mh)) {
           hit = mh;
           info = &moving->info[moving->bvh.primitives()[mh.primitive].object];
+          traffic = true;
         }
       }
       if (!info || hit.t < min_range) continue;
@@ -136,6 +139,7 @@ Scan cast_sweep(const LidarModel& lidar, const std::function<Pose(double share)>
       Eigen::Vector3f p = d_table * range;
       scan.push_back({p.x(), p.y(), p.z(), intensity});
       if (shares) shares->push_back(static_cast<float>(share[k]));
+      if (objects) objects->push_back(traffic ? kTraffic : info->object);
     }
   }
   return scan;

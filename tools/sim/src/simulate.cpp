@@ -1,6 +1,7 @@
 #include "pl/sim/simulate.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -9,6 +10,7 @@
 #include <memory>
 #include <mutex>
 #include <thread>
+#include <tuple>
 
 #include "pl/common/error.hpp"
 #include "pl/common/meta.hpp"
@@ -93,6 +95,84 @@ void write_lines(const std::string& path, const std::string& text) {
   if (std::fclose(f.release()) != 0) throw Error(path + ": write failed");
 }
 
+// How many rays of the drive see each change: probe rays (every 5th scan, every 4th beam, every
+// half degree, up to 40 m: what a vehicle's change evidence uses) cast into both epochs' worlds.
+// Where the first returns differ, a return of one epoch with no surface of the other within 0.5 m
+// along its normal (the localizer's pair limit: a surface moved less still pairs with its old self,
+// and a hedge 10 cm thicker seen at a grazing angle differs in range by metres but is no change)
+// counts for the changed thing it lies on. The truth of a map update is what a vehicle could have
+// seen: a canopy grown 8 m up, above the sensor's +2 deg, is not.
+// `seen` receives, per changed thing (its row) and 1 m cell of the world, the rays that saw it change
+// there (at the return of the epoch it changed in).
+std::vector<std::uint64_t> rays_seeing(const World& before, const World& after, const std::vector<ObjectChange>& changes,
+                                       const LidarModel& lidar, const SimTrajectory& traj, const std::vector<double>& times,
+                                       int threads, std::map<std::tuple<std::size_t, int, int>, std::uint64_t>& seen) {
+  constexpr float kRange = 40.0f, kTolerance = 0.5f;
+  constexpr std::size_t kScanStep = 5, kBeamStep = 4;
+  constexpr int kAzimuths = 720;
+  std::map<std::uint32_t, std::size_t> index;  // changed thing's id -> its row
+  for (std::size_t i = 0; i < changes.size(); ++i) index[changes[i].id] = i;
+  Scene s0, s1;
+  s0.bvh = Bvh(before.shapes(s0.info));
+  s1.bvh = Bvh(after.shapes(s1.info));
+  std::vector<std::atomic<std::uint64_t>> count(changes.size());
+  std::atomic<std::size_t> next{0};
+  std::mutex seen_mutex;
+  auto row_of = [&](const Scene& scene, const World& world, const Hit& hit) -> long {
+    const auto it = index.find(world.objects[scene.info[scene.bvh.primitives()[hit.primitive].object].object].id);
+    return it == index.end() ? -1 : static_cast<long>(it->second);
+  };
+  auto worker = [&] {
+    std::map<std::tuple<std::size_t, int, int>, std::uint64_t> mine;
+    auto cell = [&](std::size_t row, const Ray& ray, float t) {
+      const Eigen::Vector3f p = ray.origin + t * ray.dir;
+      ++mine[{row, static_cast<int>(std::floor(p.x())), static_cast<int>(std::floor(p.y()))}];
+    };
+    for (std::size_t f = next++ * kScanStep; f < times.size(); f = next++ * kScanStep) {
+      const Pose pose = traj.pose_at(times[f]);
+      const Eigen::Vector3f origin = pose.translation().cast<float>();
+      const Eigen::Matrix3f rot = pose.linear().cast<float>();
+      for (std::size_t r = 0; r < lidar.vertical_deg.size(); r += kBeamStep) {
+        const double el = lidar.vertical_deg[r] * M_PI / 180.0;
+        for (int k = 0; k < kAzimuths; ++k) {
+          const double az = 2.0 * M_PI * k / kAzimuths;
+          const Eigen::Vector3f d(static_cast<float>(std::cos(el) * std::cos(az)), static_cast<float>(std::cos(el) * std::sin(az)),
+                                  static_cast<float>(std::sin(el)));
+          Ray ray{origin, rot * d, kRange};
+          Hit h0, h1;
+          const bool b0 = s0.bvh.intersect(ray, h0), b1 = s1.bvh.intersect(ray, h1);
+          if (!b0 && !b1) continue;
+          if (b0 && b1 && std::abs(h0.t - h1.t) <= kTolerance) continue;
+          // A return of one epoch is a change when the other epoch has no surface near it.
+          auto alone = [&](const Scene& other, const Ray& r, const Hit& h) {
+            const Eigen::Vector3f p = r.origin + h.t * r.dir;
+            for (float side : {1.0f, -1.0f}) {
+              Ray probe{p - side * 0.01f * h.normal, side * h.normal, kTolerance};
+              Hit ignored;
+              if (other.bvh.intersect(probe, ignored)) return false;
+            }
+            return true;
+          };
+          const long r0 = b0 ? row_of(s0, before, h0) : -1, r1 = b1 ? row_of(s1, after, h1) : -1;
+          const bool gone = r0 >= 0 && alone(s1, ray, h0), come = r1 >= 0 && alone(s0, ray, h1);
+          if (gone) cell(static_cast<std::size_t>(r0), ray, h0.t);
+          if (come) cell(static_cast<std::size_t>(r1), ray, h1.t);
+          if (gone) count[static_cast<std::size_t>(r0)].fetch_add(1, std::memory_order_relaxed);
+          if (come && (!gone || r1 != r0)) count[static_cast<std::size_t>(r1)].fetch_add(1, std::memory_order_relaxed);
+        }
+      }
+    }
+    std::lock_guard<std::mutex> lock(seen_mutex);
+    for (const auto& [k, n] : mine) seen[k] += n;
+  };
+  std::vector<std::thread> pool;
+  for (int k = 0; k < std::max(1, threads); ++k) pool.emplace_back(worker);
+  for (auto& th : pool) th.join();
+  std::vector<std::uint64_t> out(changes.size());
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = count[i].load();
+  return out;
+}
+
 }  // namespace
 
 SimReport simulate(const SimOptions& o) {
@@ -106,6 +186,7 @@ SimReport simulate(const SimOptions& o) {
   if (!(o.truth.scale >= 0) || !std::isfinite(o.truth.scale)) throw Error("the truth error scale must be 0 or more");
   // The sensor's own errors: one set per sensor (seed), the same in every epoch and drive of it.
   lidar.laser_errors = draw_laser_errors(lidar.vertical_deg.size(), o.calibration_error, o.world.seed);
+  const std::uint64_t drive_seed = o.drive_seed < 0 ? o.world.seed : static_cast<std::uint64_t>(o.drive_seed);
   GpsConfig gps_cfg = o.gps;
   if (!o.gnss_profile.empty()) gps_cfg.profile = read_gnss_profile(o.gnss_profile);
 
@@ -118,7 +199,7 @@ SimReport simulate(const SimOptions& o) {
   Scene scene;
   scene.bvh = Bvh(world.shapes(scene.info));
   TrafficConfig tcfg = o.traffic;
-  tcfg.seed = o.world.seed;
+  tcfg.seed = drive_seed;
   tcfg.road_half_width = o.world.road_half_width;
   Traffic traffic(traj, t0, t1, tcfg);
 
@@ -134,6 +215,9 @@ SimReport simulate(const SimOptions& o) {
   int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   threads = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(threads), n));
   std::vector<std::size_t> counts(n, 0);
+  // Per thing, this drive: returns (low 32 bits) and those within kNear of the sensor (high 32 bits).
+  constexpr float kNear = 40.0f;
+  std::vector<std::atomic<std::uint64_t>> returns(world.objects.size());
   std::atomic<std::size_t> next{0}, done{0};
   std::exception_ptr failure;
   std::mutex failure_mutex;
@@ -143,14 +227,20 @@ SimReport simulate(const SimOptions& o) {
       for (std::size_t i = next++; i < n; i = next++) {
         double t = scan_times[i];
         Pose pose = traj.pose_at(t);
-        std::mt19937_64 rng(o.world.seed * 0x9E3779B97F4A7C15ull ^ (static_cast<std::uint64_t>(i) * 0xBF58476D1CE4E5B9ull) ^
+        std::mt19937_64 rng(drive_seed * 0x9E3779B97F4A7C15ull ^ (static_cast<std::uint64_t>(i) * 0xBF58476D1CE4E5B9ull) ^
                             static_cast<std::uint64_t>(o.world.epoch + 1) * 0x94D049BB133111EBull);
         std::unique_ptr<Scene> moving;
         if (traffic.size()) moving = std::make_unique<Scene>(traffic.scene_at(t, pose.translation(), lidar.max_range));
         std::vector<float> shares;
-        Scan scan = o.sweep ? cast_sweep(lidar, [&](double share) { return traj.pose_at(t + share * kSweep); }, scene,
-                                         moving.get(), rng, &shares)
-                            : cast_scan(lidar, pose, scene, moving.get(), rng);
+        std::vector<std::uint32_t> hit;
+        Scan scan = cast_sweep(lidar, [&](double share) { return o.sweep ? traj.pose_at(t + share * kSweep) : pose; }, scene,
+                               moving.get(), rng, &shares, &hit);
+        for (std::size_t k = 0; k < hit.size(); ++k) {
+          if (hit[k] == kTraffic) continue;
+          const PointXYZI& p = scan[k];
+          const bool near = p.x * p.x + p.y * p.y + p.z * p.z <= kNear * kNear;
+          returns[hit[k]].fetch_add(near ? (std::uint64_t{1} << 32) | 1 : 1, std::memory_order_relaxed);
+        }
         char name[32];
         std::snprintf(name, sizeof(name), "%06zu.bin", i);
         write_kitti_bin((tmp / "velodyne" / name).string(), scan);
@@ -178,7 +268,7 @@ SimReport simulate(const SimOptions& o) {
   char buf[512];
   std::vector<Pose, Eigen::aligned_allocator<Pose>> truth;
   for (double t : scan_times) truth.push_back(traj.pose_at(t));
-  truth = ins_truth(truth, scan_times, o.truth, o.world.seed + 1000003ull * static_cast<std::uint64_t>(o.world.epoch));
+  truth = ins_truth(truth, scan_times, o.truth, drive_seed + 1000003ull * static_cast<std::uint64_t>(o.world.epoch));
   for (std::size_t i = 0; i < scan_times.size(); ++i) {
     std::snprintf(buf, sizeof(buf), "%.6f\n", scan_times[i] - t0);
     times_txt += buf;
@@ -199,7 +289,7 @@ SimReport simulate(const SimOptions& o) {
   }
   write_lines((tmp / "encoder.csv").string(), enc);
   EnuFrame enu(o.origin);
-  std::mt19937_64 gps_rng(o.world.seed * 0x2545F4914F6CDD1Dull + 0x6B5);
+  std::mt19937_64 gps_rng(drive_seed * 0x2545F4914F6CDD1Dull + 0x6B5);
   auto gps = simulate_gps(traj, t0, t1, world, enu, gps_cfg, gps_rng);
   std::string g = "t,lat,lon,alt,std_m,status\n";
   std::map<std::string, std::size_t> mix;
@@ -224,11 +314,35 @@ SimReport simulate(const SimOptions& o) {
   meta.origin = o.origin;
   write_meta((tmp / "meta.json").string(), meta);
 
+  // The things of the world and what changed: the truth a map update is judged by.
+  std::vector<std::uint64_t> returned(returns.size()), near(returns.size());
+  for (std::size_t i = 0; i < returns.size(); ++i) {
+    returned[i] = returns[i].load() & 0xFFFFFFFFu;
+    near[i] = returns[i].load() >> 32;
+  }
+  write_lines((tmp / "objects.csv").string(), objects_csv(world, returned, near));
+  SimReport r;
+  if (o.world.epoch >= 1) {
+    WorldConfig before = o.world;
+    before.epoch = 0;
+    const World world0 = build_world(street, street.start_time(), street.end_time(), before);
+    const std::vector<ObjectChange> changes = changes_between(world0, world);
+    std::map<std::tuple<std::size_t, int, int>, std::uint64_t> seen;
+    write_lines((tmp / "changes.csv").string(), changes_csv(changes, rays_seeing(world0, world, changes, lidar, traj, scan_times, threads, seen)));
+    std::string text = "id,x,y,rays\n";
+    for (const auto& [k, n] : seen) {
+      const auto& [row, cx, cy] = k;
+      std::snprintf(buf, sizeof buf, "%u,%.1f,%.1f,%llu\n", changes[row].id, cx + 0.5, cy + 0.5, static_cast<unsigned long long>(n));
+      text += buf;
+    }
+    write_lines((tmp / "changes_seen.csv").string(), text);
+    r.changes = changes.size();
+  }
+
   // Publish: the finished folder replaces the old one in one rename.
   if (fs::exists(out)) fs::remove_all(out);
   fs::rename(tmp, out);
 
-  SimReport r;
   if (!o.preview.empty()) write_preview(o.preview, world, traj, t0, t1, &traffic);
   if (!o.map_out.empty()) {
     std::vector<float> intensity;

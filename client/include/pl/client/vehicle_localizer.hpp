@@ -29,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "pl/client/change_evidence.hpp"
 #include "pl/client/localizer.hpp"
 #include "pl/client/tile_client.hpp"
 #include "pl/common/scan.hpp"
@@ -53,6 +54,10 @@ struct VehicleLocalizerConfig {
   std::size_t max_odometry_samples = 20000;  // the buffer's bound (200 s at 100 Hz)
   bool start_from_gps = false;               // start at the first scan that has a GPS fix within 0.5 s
   registration::PoseSearch search;           // the reach of start_near(): radius_m and yaw_range_deg
+  // Change evidence for the map service (enabled: kept from the ok scans; read it with
+  // change_evidence()). Never from a scan that is not ok, and never in the way of the next scan:
+  // it is kept after the scan's pose is out, and not at all when the next scan is already waiting.
+  ChangeEvidenceConfig changes;
   registration::PoseSearch gps_search = [] {
     registration::PoseSearch s;
     s.yaw_range_deg = 180.0;  // a fix has no heading
@@ -117,6 +122,15 @@ class VehicleLocalizer {
   // and displays (pl-localize --log). Waits while a scan is being registered (the worker changes the
   // map then); the clouds are shared, not copied.
   std::vector<MapTile> map_tiles() const;
+  // The change evidence kept so far (config.changes.enabled), per tile; waits for the scan being
+  // registered. Empty when not enabled.
+  std::vector<schema::TileChangeEvidence> change_evidence() const;
+  struct ChangeStats {
+    std::size_t scans = 0;    // ok scans the evidence came from
+    std::size_t skipped = 0;  // ok scans passed over because the next scan was already waiting
+    std::vector<double> ms;   // each one's time
+  };
+  ChangeStats change_stats() const;
   double tile_size() const;
   // The geodetic origin of the map's ENU frame: GPS fixes (latitude, longitude) go into the map frame
   // with EnuFrame(map_origin()).to_enu().

@@ -58,8 +58,11 @@ Scan cast_scan(const LidarModel& lidar, const Pose& sensor, const Scene& world, 
 // (back, on the left); `sensor_at(s)`
 // gives the LiDAR's pose then. Each point is written in the sensor frame of its own firing, as a
 // driver gives it, so the vehicle's motion distorts the scan. `shares`, when not null, receives each
-// point's share.
+// point's share; `objects`, when not null, what each point hit: its index into World::objects, or
+// kTraffic for a moving agent.
+constexpr std::uint32_t kTraffic = 0xFFFFFFFFu;
 Scan cast_sweep(const LidarModel& lidar, const std::function<Pose(double share)>& sensor_at, const Scene& world,
-                const Scene* moving, std::mt19937_64& rng, std::vector<float>* shares = nullptr);
+                const Scene* moving, std::mt19937_64& rng, std::vector<float>* shares = nullptr,
+                std::vector<std::uint32_t>* objects = nullptr);
 
 }  // namespace pl::sim

@@ -20,6 +20,9 @@ struct SimOptions {
   std::string out_dir;
   long long frames = 0;  // 0: the whole route
   WorldConfig world;
+  // The drive's own randomness (traffic, sensor noise, GPS and truth errors): another vehicle in
+  // the same world. < 0: the world's seed.
+  long long drive_seed = -1;
   TrafficConfig traffic;
   std::string lidar = "hdl64";
   double fov_deg = 360.0;
@@ -40,6 +43,7 @@ struct SimOptions {
 
 struct SimReport {
   std::size_t frames = 0, objects = 0, movable = 0;
+  std::size_t changes = 0;  // epoch 1: the things changed since epoch 0 (changes.csv)
   std::size_t points_min = 0, points_max = 0;
   double points_median = 0;  // pl::median of the scans' point counts
   std::size_t encoder_samples = 0, gps_fixes = 0, map_points = 0;
@@ -53,7 +57,12 @@ struct SimReport {
 SimTrajectory load_trajectory(const SimOptions& o, std::vector<double>& scan_times);
 
 // Writes the dataset into o.out_dir (through a sibling folder renamed into place at the end, so an
-// interrupted run never leaves a half-written dataset behind).
+// interrupted run never leaves a half-written dataset behind), with objects.csv (the world's things
+// and the returns each gave this drive) and, in epoch 1, changes.csv (what changed since epoch 0:
+// the ground truth of a map update, with the rays of this drive that see each change: probe rays
+// from every 5th scan's pose, every 4th beam, every 0.5 deg, up to 40 m, cast into both epochs'
+// worlds, counting a return on a changed thing with no surface of the other epoch within 0.5 m
+// along its normal; changes_seen.csv: the same per thing and 1 m cell of the world).
 SimReport simulate(const SimOptions& o);
 
 }  // namespace pl::sim

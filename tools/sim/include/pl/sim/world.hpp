@@ -65,6 +65,38 @@ struct World {
 // Builds the world along the part of the trajectory from t0 to t1.
 World build_world(const SimTrajectory& path, double t0, double t1, const WorldConfig& cfg);
 
+// A thing's footprint on the ground: a rectangle turned by yaw.
+struct Footprint {
+  Eigen::Vector2f centre = Eigen::Vector2f::Zero();
+  Eigen::Vector2f half = Eigen::Vector2f::Zero();
+  float yaw = 0.0f;
+};
+
+// One thing that differs between two epochs of a world (matched by id): the ground truth of a map
+// update.
+struct ObjectChange {
+  enum class Kind : std::uint8_t { Moved, Removed, Added, Grown };
+  Kind kind = Kind::Moved;
+  std::uint32_t id = 0;
+  ObjectClass cls = ObjectClass::Building;
+  bool has_before = false, has_after = false;
+  Footprint before, after;  // where it stood, and where it stands (each when it exists)
+};
+const char* change_name(ObjectChange::Kind k);
+
+// What changed from `before` to `after`, in id order: things gone, new, moved (footprint centre) or
+// grown (footprint extents or any shape's size).
+std::vector<ObjectChange> changes_between(const World& before, const World& after);
+
+// CSV texts (a header line, then a row per thing; metres and radians in the world frame):
+//   objects.csv: id,class,x,y,half_x,half_y,yaw,base,height,returns,returns_40m
+//                (the drive's points on it, and those within 40 m of the sensor)
+//   changes.csv: id,class,change,x0,y0,half_x0,half_y0,yaw0,x1,y1,half_x1,half_y1,yaw1,rays_seeing
+//                (the before columns empty for an added thing, the after ones for a removed thing;
+//                rays_seeing: the drive's rays that see the change, see simulate.hpp)
+std::string objects_csv(const World& world, const std::vector<std::uint64_t>& returns, const std::vector<std::uint64_t>& near);
+std::string changes_csv(const std::vector<ObjectChange>& changes, const std::vector<std::uint64_t>& rays_seeing);
+
 // Key of a 2-D grid cell, for hash maps over cells.
 inline std::int64_t grid_key(int x, int y) {
   return static_cast<std::int64_t>(static_cast<std::uint64_t>(static_cast<std::uint32_t>(x)) << 32 | static_cast<std::uint32_t>(y));
