@@ -214,8 +214,9 @@ struct VehicleLocalizer::Impl {
       cb(r);
       lk.lock();
     }
-    if (evidence && r.health == Health::Ok && !r.map_outdated && loc->map() && pending) ++evidence_skipped;
-    if (evidence && r.health == Health::Ok && !r.map_outdated && loc->map() && !pending) {
+    const bool wants_evidence = evidence && r.health == Health::Ok && !r.map_outdated && loc->map();
+    if (wants_evidence && pending) ++evidence_skipped;
+    if (wants_evidence && !pending) {
       lk.unlock();
       // The returns of the beams and field of view the localizer keeps (a 16-beam vehicle sees what
       // a 16-beam sensor sees), not thinned: the evidence has its own grid.
