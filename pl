@@ -83,8 +83,10 @@ cmd_test() {
 }
 
 # The threaded parts under ThreadSanitizer: the tile client (its fetch thread against a real
-# pl-server), the vehicle localizer (input, worker and reader threads) and the server (its
-# io_context threads, in the pl-server processes the tests start). A report fails the test.
+# pl-server), the vehicle localizer (input, worker and reader threads; moving to a new map version
+# mid-drive with a second tile client) and the server (its
+# io_context threads, in the pl-server processes the tests start; the viewer's event streams). A
+# report fails the test.
 test_tsan() {
   local dir=build/tsan
   if [[ ! -f "$dir/build.ninja" ]]; then
@@ -92,10 +94,10 @@ test_tsan() {
     cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DPL_TSAN=ON -DPL_BUILD_BENCH=OFF >/dev/null
   fi
   say "building the threaded tests in $dir (ThreadSanitizer)"
-  cmake --build "$dir" -j "$JOBS" --target test_client test_vehicle_localizer test_server pl-server pl-map
+  cmake --build "$dir" -j "$JOBS" --target test_client test_vehicle_localizer test_map_swap test_reports test_server test_viewer_routes pl-server pl-map
   say "running them under ThreadSanitizer"
   TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:exitcode=66:second_deadlock_stack=1} \
-    ctest --test-dir "$dir" --output-on-failure -j "$JOBS" -R '^(TileClient|TileCache|VehicleLocalizer|Server)\.'
+    ctest --test-dir "$dir" --output-on-failure -j "$JOBS" -R '^(TileClient|TileCache|VehicleLocalizer|MapSwap|Server|ViewerRoutes|Reports)\.'
 }
 
 build_fuzz() {

@@ -24,6 +24,10 @@ echo "== bench_server: tile serving against nginx, ROI queries, tile compression
 bash "$(dirname "$0")/bench_server.sh" "$bin" "$root/build/bench"
 
 echo
+echo "== viewer: the map viewer in headless Chromium (software WebGL) on loopback: time to first tiles, frames per second"
+bash "$(dirname "$0")/viewer.sh" "$bin" "$root/build/bench"
+
+echo
 echo "== bench_localize: drive 0005, the paper's protocol (ours vs PCL)"
 if [[ -n "$data" ]]; then
   bash "$(dirname "$0")/localize_kitti05.sh" "$bin" "$root/build/bench"

@@ -11,7 +11,9 @@
 
 #include "pl/client/config_fields.hpp"
 #include "pl/client/replay.hpp"
+#include "pl/client/report_outbox.hpp"
 #include "pl/client/run_log.hpp"
+#include "pl/client/status_reporter.hpp"
 #include "pl/client/vehicle_localizer.hpp"
 #include "pl/common/cli.hpp"
 #include "pl/common/dataset.hpp"
@@ -165,6 +167,8 @@ int main(int argc, char** argv) {
   server_opt->excludes(db_opt);
   app.add_option("--map", cfg.tiles.map, "the map's name (pl-map list)")->required();
   cli::number(app, "--map-version", version, "the map version (default: the current one)", cli::at_least(1))->default_str("");
+  cli::number(app, "--follow", cfg.tiles.follow_s, "with --server: ask this often which map version is current and move to a newer "
+              "one mid-drive, its tiles loaded first (0: stay on the version of the start), s", cli::at_least(0));
   cli::number(app, "--beams", beams, "beams kept of the sensor's (every k-th ring; default: all)", cli::between(1, 1024))->default_str("");
   cli::number(app, "--fov", lc.scan.fov_deg, "horizontal field of view kept, degrees, centred ahead", cli::above_up_to(0, 360));
   cli::choice(app, "--odometry", odometry, "what predicts between scans (auto: encoder, else odometry, else lidar momentum)",
@@ -208,6 +212,15 @@ int main(int argc, char** argv) {
   double drive_start = -1;
   cli::output_file(app, "--change-report", report_out, "keep change evidence from the ok scans and write the drive's change "
                    "report (JSON, what POST /v1/maps/{map}/reports takes; docs/map-updates.md)");
+  std::string spool, report_server, report_token;
+  app.add_option("--report-spool", spool, "keep change evidence and put the drive's report in this spool directory, then send "
+                 "what waits there to the map service (POST /v1/maps/{map}/reports; kept until it is taken)")->type_name("DIR");
+  app.add_option("--report-server", report_server, "where --report-spool sends to (default: --server)")->type_name("URL");
+  app.add_option("--report-token", report_token, "a token of the report role, for --report-spool and --status-every");
+  double status_every = 0;
+  cli::number(app, "--status-every", status_every, "tell the map service the vehicle's position and health every this many "
+              "seconds (POST /v1/maps/{map}/vehicles/{--vehicle}: the viewer shows it live; needs --report-token)",
+              cli::between(0.05, 3600))->default_str("off");
   app.add_option("--vehicle", vehicle, "the report's vehicle id (drives of one vehicle are not independent evidence)");
   app.add_option("--drive-id", drive_id, "the report's drive id (default: the drive folder's name and the start time)");
   cli::number(app, "--drive-start", drive_start, "the drive's start, seconds since 1970, for the report (default: now "
@@ -295,8 +308,35 @@ int main(int argc, char** argv) {
     if (db.empty()) cfg.tiles.server = server;
     else cfg.store_path = db;
 
-    cfg.changes.enabled = !report_out.empty();
-    pl::client::VehicleLocalizer loc(cfg);
+    cfg.changes.enabled = !report_out.empty() || !spool.empty();
+    std::unique_ptr<pl::client::ReportOutbox> outbox;
+    if (!spool.empty()) {  // opened before the drive: a spool that cannot be written is said at once
+      pl::client::ReportOutboxConfig oc;
+      oc.dir = spool;
+      oc.server = report_server.empty() ? server : report_server;
+      oc.token = report_token;
+      oc.http.ca_file = cfg.tiles.ca_file;
+      oc.http.insecure_http = cfg.tiles.insecure_http;
+      outbox = std::make_unique<pl::client::ReportOutbox>(oc);
+    }
+    std::unique_ptr<pl::client::StatusReporter> status;
+    if (status_every > 0) {
+      pl::client::StatusReporterConfig sc;
+      sc.server = report_server.empty() ? server : report_server;
+      sc.token = report_token;
+      sc.map = cfg.tiles.map;
+      sc.vehicle = vehicle;
+      sc.every_s = status_every;
+      sc.http.ca_file = cfg.tiles.ca_file;
+      sc.http.insecure_http = cfg.tiles.insecure_http;
+      sc.http.timeout_s = 2.0;
+      status = std::make_unique<pl::client::StatusReporter>(sc);
+    }
+    pl::client::VehicleLocalizer loc(cfg);  // after the reporter: its callback may run until the localizer stops
+    if (status) {
+      const Eigen::Isometry3d lidar_to_base = cfg.base_from_lidar.inverse();
+      loc.on_scan([&status, lidar_to_base](const pl::client::ScanReport& r) { status->update(r.fused * lidar_to_base, r.health, r.t); });
+    }
     std::unique_ptr<std::FILE, int (*)(std::FILE*)> timing(timing_out.empty() ? nullptr : std::fopen(timing_out.c_str(), "w"), std::fclose);
     if (!timing_out.empty() && !timing) throw Error("cannot write " + timing_out);
     replay.timing = timing.get();
@@ -319,7 +359,9 @@ int main(int argc, char** argv) {
     const std::size_t n = replay.scans.size();
     const double span = ds.times[replay.scans.back()] - ds.times[replay.scans.front()];
     std::size_t report_tiles = 0, report_bytes = 0;
-    if (!report_out.empty()) {
+    std::vector<std::string> dropped;
+    pl::client::OutboxSend sent;
+    if (!report_out.empty() || outbox) {
       pl::schema::ChangeReport rep;
       rep.map = cfg.tiles.map;
       rep.version = loc.map_version();
@@ -333,21 +375,30 @@ int main(int argc, char** argv) {
       rep.tiles = loc.change_evidence();
       const std::string text = pl::schema::change_report_json(rep);
       pl::schema::parse_change_report(text);  // what the service will accept (names, ids, bounds)
-      const std::string tmp = report_out + ".partial";
-      {
-        std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-        f << text;
-        if (!f.flush()) throw pl::Error(tmp + ": write failed");
+      if (!report_out.empty()) {
+        const std::string tmp = report_out + ".partial";
+        {
+          std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+          f << text;
+          if (!f.flush()) throw pl::Error(tmp + ": write failed");
+        }
+        std::filesystem::rename(tmp, report_out);
       }
-      std::filesystem::rename(tmp, report_out);
       report_tiles = rep.tiles.size();
       report_bytes = text.size();
+      if (outbox) {
+        dropped = outbox->put(rep);
+        sent = outbox->send();
+      }
     }
     std::printf("pl-localize: %zu scans of %s, map %s v%lld (%s), %d beams, fov %.0f, odometry %s\n", n, ds.dir.c_str(),
                 cfg.tiles.map.c_str(), loc.map_version(), db.empty() ? server.c_str() : "local store", beams, lc.scan.fov_deg,
                 odometry.c_str());
-    std::printf("  status: %zu ok, %zu degraded, %zu lost; LiDAR fused on %zu (%.1f %%); map looked outdated on %zu\n", r.ok,
-                r.degraded, r.lost, r.lidar_fused, 100.0 * static_cast<double>(r.lidar_fused) / static_cast<double>(n), r.outdated);
+    if (loc.version_moves() > 0)
+      std::printf("  map version moved %zu time(s) mid-drive, to v%lld\n", loc.version_moves(), loc.map_version());
+    std::printf("  status: %zu ok, %zu degraded, %zu lost; LiDAR fused on %zu (%.1f %%); map looked outdated on %zu; "
+                "unpaired share %.1f %%\n", r.ok, r.degraded, r.lost, r.lidar_fused,
+                100.0 * static_cast<double>(r.lidar_fused) / static_cast<double>(n), r.outdated, 100.0 * r.unpaired_share());
     std::printf("  registration ms: median %.2f, p99 %.2f; whole scan ms: median %.2f, p99 %.2f (registration on its own thread)\n",
                 pl::percentile(r.registration_ms, 50), pl::percentile(r.registration_ms, 99), pl::percentile(r.total_ms, 50),
                 pl::percentile(r.total_ms, 99));
@@ -360,12 +411,23 @@ int main(int argc, char** argv) {
                   static_cast<unsigned long long>(c.at("/map")), static_cast<unsigned long long>(c.at("/gps")), log_out.c_str(),
                   static_cast<double>(log->bytes()) / 1e6);
     }
-    if (!report_out.empty()) {
+    if (!report_out.empty() || outbox) {
       const auto cs = loc.change_stats();
       std::printf("  change report: evidence from %zu ok scans (%zu passed over, the next scan waiting; median %.1f ms a scan), "
                   "%zu tiles, %.1f kB -> %s\n",
                   cs.scans, cs.skipped, cs.ms.empty() ? 0.0 : pl::percentile(cs.ms, 50), report_tiles,
-                  static_cast<double>(report_bytes) / 1e3, report_out.c_str());
+                  static_cast<double>(report_bytes) / 1e3, report_out.empty() ? spool.c_str() : report_out.c_str());
+    }
+    if (status) {
+      const auto st = status->stats();
+      std::printf("  status to the map service: %zu sent, %zu failed%s%s\n", st.sent, st.failed, st.last_error.empty() ? "" : ": ",
+                  st.last_error.c_str());
+    }
+    if (outbox) {
+      for (const auto& d : dropped) std::fprintf(stderr, "pl-localize: warning: the report spool is full: dropped %s\n", d.c_str());
+      std::printf("  report spool: %zu sent (%.1f kB gzipped), %zu held by the service already, %zu refused (%s/refused), "
+                  "%zu waiting%s%s\n", sent.sent, static_cast<double>(sent.bytes) / 1e3, sent.already, sent.refused, spool.c_str(),
+                  sent.waiting, sent.last_error.empty() ? "" : ": ", sent.last_error.c_str());
     }
     if (db.empty()) {
       const auto st = loc.tile_status();

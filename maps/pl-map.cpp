@@ -19,6 +19,7 @@
 #include "pl/maps/change_detect.hpp"
 #include "pl/maps/gloam.hpp"
 #include "pl/maps/import.hpp"
+#include "pl/maps/map_update.hpp"
 #include "pl/maps/push.hpp"
 #include "pl/schema/store.hpp"
 #include "pl/schema/store_copy.hpp"
@@ -252,7 +253,7 @@ void add_token_commands(Tool& tool) {
   CLI::App& add = tool.command("token-add", "make a new bearer token and register it (the store keeps only its SHA-256)", [s] {
     auto store = pl::store::Store::open(s->db, false);
     const auto role = pl::store::parse_role(s->role);
-    if (!role) throw pl::Error("--role " + s->role + ": expected read, upload or admin");
+    if (!role) throw pl::Error("--role " + s->role + ": expected read, report, upload or admin");
     const std::string token = pl::store::random_token();
     const auto id = store.add_token(token, *role, s->note);
     std::printf("%s\n", token.c_str());
@@ -261,7 +262,8 @@ void add_token_commands(Tool& tool) {
     return 0;
   });
   db_option(add, s->db, false);
-  add.add_option("--role", s->role, "read, upload or admin (each includes the ones before it)")->check(CLI::IsMember({"read", "upload", "admin"}));
+  add.add_option("--role", s->role, "read, report (a vehicle's: reads maps, sends change reports), upload or admin (each "
+                 "includes the ones before it)")->check(CLI::IsMember({"read", "report", "upload", "admin"}));
   add.add_option("--note", s->note, "what or who the token is for");
   CLI::App& list = tool.command("token-list", "the tokens: id, role, created, revoked, note (never a token)", [s] {
     auto store = pl::store::Store::open(s->db, false);
@@ -290,7 +292,8 @@ void add_migrate(Tool& tool) {
     std::string from, to;
   };
   auto s = std::make_shared<State>();
-  CLI::App& c = tool.command("migrate", "copy a whole store, exactly (ids, times, history, tokens, the upload log), into an "
+  CLI::App& c = tool.command("migrate", "copy a whole store, exactly (ids, times, history, tokens, the upload log, change "
+                             "reports), into an "
                              "empty one: SQLite to PostgreSQL, back, or within one engine; verified by a digest of both", [s] {
     pl::StageProgress bars;
     const auto r = pl::store::copy_store(s->from, s->to, [&](const std::string& stage, std::size_t done, std::size_t total) {
@@ -298,11 +301,12 @@ void add_migrate(Tool& tool) {
     });
     bars.finish();
     std::printf("copied %s to %s: %lld maps, %lld versions, %lld tiles, %lld blobs (%s), %lld places, %lld signatures, "
-                "%lld tokens, %lld upload log entries\n",
+                "%lld tokens, %lld upload log entries, %lld change reports\n",
                 pl::store::display_name(s->from).c_str(), pl::store::display_name(s->to).c_str(), static_cast<long long>(r.maps),
                 static_cast<long long>(r.versions), static_cast<long long>(r.tiles), static_cast<long long>(r.blobs),
                 maps::megabytes(static_cast<double>(r.blob_bytes)).c_str(), static_cast<long long>(r.places),
-                static_cast<long long>(r.signatures), static_cast<long long>(r.tokens), static_cast<long long>(r.log_entries));
+                static_cast<long long>(r.signatures), static_cast<long long>(r.tokens), static_cast<long long>(r.log_entries),
+                static_cast<long long>(r.reports));
     std::printf("content digest %s: the same on both\n", r.digest.c_str());
     return 0;
   });
@@ -343,6 +347,84 @@ void add_check(Tool& tool) {
   db_option(c, *db, false);
 }
 
+std::vector<pl::schema::ChangeReport> read_reports(const std::vector<std::string>& paths) {
+  std::vector<pl::schema::ChangeReport> reports;
+  for (const std::string& path : paths) {
+    std::ifstream f(path, std::ios::binary);
+    if (!f) throw pl::Error(path + ": cannot read the change report");
+    std::ostringstream text;
+    text << f.rdbuf();
+    try {
+      reports.push_back(pl::schema::parse_change_report(text.str()));
+    } catch (const pl::Error& e) {
+      throw pl::Error(path + ": " + e.what());
+    }
+  }
+  return reports;
+}
+
+void rule_options(CLI::App& c, maps::ChangeRule& rule) {
+  pl::cli::number(c, "--min-drives", rule.min_drives, "independent passes that must agree on a voxel", pl::cli::between(1, 100));
+  pl::cli::number(c, "--window", rule.window, "... among a tile's last this many passes", pl::cli::between(1, 1000));
+  pl::cli::number(c, "--min-cells", rule.min_cells, "agreed voxels for a tile to be a candidate", pl::cli::at_least(1));
+  pl::cli::number(c, "--independent-s", rule.independent_s, "drives of one vehicle starting closer than this are one pass, s",
+                  pl::cli::at_least(0));
+}
+
+// A staged version from the change reports: only the candidate tiles rebuilt (pl/maps/map_update.hpp).
+void add_update(Tool& tool) {
+  struct Opts {
+    std::string db, map, signing_key;
+    std::vector<std::string> reports;
+    bool publish = false;
+    maps::MapUpdateConfig cfg;
+  };
+  auto o = std::make_shared<Opts>();
+  CLI::App& c = tool.command("update", "stage a new version of a map from its change reports: only the tiles independent drives "
+                             "agree changed are rebuilt (old points minus the removed, plus the added), every other tile keeps its "
+                             "bytes (docs/map-updates.md)", [o] {
+    std::optional<pl::signing::SigningKey> key;
+    if (!o->signing_key.empty()) key = pl::signing::SigningKey::load(o->signing_key);  // before anything is written
+    auto store = pl::store::Store::open(o->db, false);
+    // The reports given, else those the store holds against the current version (sent by the
+    // vehicles: POST /v1/maps/{map}/reports).
+    std::vector<pl::schema::ChangeReport> reports = read_reports(o->reports);
+    if (o->reports.empty()) {
+      const auto m = maps::need_map(store, o->map);
+      if (m.current)
+        for (const auto& info : store.list_reports(o->map, *m.current))
+          if (auto body = store.report_body(o->map, info.id)) reports.push_back(pl::schema::parse_change_report(*body));
+    }
+    const maps::MapUpdateResult r = maps::update_map(store, o->map, reports, o->cfg);
+    std::size_t candidates = 0;
+    for (const auto& t : r.summary.tiles) candidates += t.candidate;
+    std::printf("%zu reports, %zu independent passes against v%lld; %zu change candidates\n", r.summary.reports, r.summary.used,
+                static_cast<long long>(r.parent), candidates);
+    if (!r.version) {
+      std::printf("nothing to update: no tile changed (v%lld stays current)\n", static_cast<long long>(r.parent));
+      return 0;
+    }
+    for (const auto& t : r.tiles) std::printf("~ %d %d: %s\n", t.key.tx, t.key.ty, t.reason().c_str());
+    const auto number = static_cast<long long>(r.version->number);
+    std::printf("map %s version %lld staged (parent v%lld): %zu tiles rebuilt, %zu keep their bytes\n", o->map.c_str(), number,
+                static_cast<long long>(r.parent), r.tiles.size(), r.unchanged);
+    if (o->publish) {
+      maps::publish_version(store, o->map, r.version->number, key ? &*key : nullptr);
+      std::printf("map %s: version %lld is current\n", o->map.c_str(), number);
+    }
+    return 0;
+  });
+  db_option(c, o->db, false);
+  c.add_option("--map", o->map, "the map's name")->required()->type_name("NAME");
+  c.add_option("--reports", o->reports, "change reports (JSON, pl-localize --change-report) instead of those the store holds "
+               "(sent to pl-server by the vehicles); those against other versions than the current one do not count")
+      ->expected(1, -1)->type_name("FILE...")->check(CLI::ExistingFile);
+  rule_options(c, o->cfg.rule);
+  c.add_flag("--publish", o->publish, "publish the staged version at once");
+  c.add_option("--signing-key", o->signing_key, "(with --publish) sign the version's manifest with this Ed25519 private key")
+      ->type_name("FILE");
+}
+
 // Change candidates from change reports (pl-localize --change-report): which tiles independent
 // drives agree changed (pl/maps/change_detect.hpp states the rule).
 void add_changes(Tool& tool) {
@@ -355,18 +437,7 @@ void add_changes(Tool& tool) {
   auto o = std::make_shared<Opts>();
   CLI::App& c = tool.command("changes", "which tiles changed, from the change reports of several drives (pl-localize "
                              "--change-report): a tile is a candidate when independent drives agree (docs/map-updates.md)", [o] {
-    std::vector<pl::schema::ChangeReport> reports;
-    for (const std::string& path : o->reports) {
-      std::ifstream f(path, std::ios::binary);
-      if (!f) throw pl::Error(path + ": cannot read the change report");
-      std::ostringstream text;
-      text << f.rdbuf();
-      try {
-        reports.push_back(pl::schema::parse_change_report(text.str()));
-      } catch (const pl::Error& e) {
-        throw pl::Error(path + ": " + e.what());
-      }
-    }
+    const std::vector<pl::schema::ChangeReport> reports = read_reports(o->reports);
     long long version = o->version;
     if (version == 0)
       for (const auto& r : reports) version = std::max<long long>(version, r.version);
@@ -388,11 +459,7 @@ void add_changes(Tool& tool) {
   pl::cli::number(c, "--version", o->version, "the map version the reports were made against (default: the newest named)",
                   pl::cli::at_least(1))->default_str("");
   pl::cli::output_file(c, "--out", o->out, "the tiles as CSV: tx,ty,passes,agreed,added,removed,candidate,drives");
-  pl::cli::number(c, "--min-drives", o->rule.min_drives, "independent passes that must agree on a voxel", pl::cli::between(1, 100));
-  pl::cli::number(c, "--window", o->rule.window, "... among a tile's last this many passes", pl::cli::between(1, 1000));
-  pl::cli::number(c, "--min-cells", o->rule.min_cells, "agreed voxels for a tile to be a candidate", pl::cli::at_least(1));
-  pl::cli::number(c, "--independent-s", o->rule.independent_s, "drives of one vehicle starting closer than this are one pass, s",
-                  pl::cli::at_least(0));
+  rule_options(c, o->rule);
 }
 
 int main(int argc, char** argv) {
@@ -406,5 +473,6 @@ int main(int argc, char** argv) {
   add_migrate(tool);
   add_check(tool);
   add_changes(tool);
+  add_update(tool);
   return tool.main(argc, argv);
 }

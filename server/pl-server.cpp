@@ -60,7 +60,7 @@ void add_tokens(const std::string& db, const std::string& path) {
   while (reader.next(line)) {
     auto f = pl::split_fields(line, " \t\r");
     auto role = f.size() == 2 ? pl::store::parse_role(f[0]) : std::nullopt;
-    if (!role) reader.fail("\"ROLE TOKEN\" with ROLE read, upload or admin", line);
+    if (!role) reader.fail("\"ROLE TOKEN\" with ROLE read, report, upload or admin", line);
     const std::string token(f[1]);
     if (!store.check_token(token)) {
       try {
@@ -95,7 +95,7 @@ int main(int argc, char** argv) {
   app.add_option("--listen", listen, "address or host name to listen on (127.0.0.1:8080, localhost:8080, [::1]:8080, "
                  "0.0.0.0:8080); port 0 picks a free one (printed at start)")->type_name("HOST:PORT")->capture_default_str();
   pl::cli::number(app, "--threads", cfg.threads, "worker threads (default: the cores)", pl::cli::between(1, 256))->default_str("");
-  app.add_option("--tokens", tokens, "lines of \"ROLE TOKEN\" (read, upload or admin) added to the store, hashed")->type_name("FILE");
+  app.add_option("--tokens", tokens, "lines of \"ROLE TOKEN\" (read, report, upload or admin) added to the store, hashed")->type_name("FILE");
   app.add_flag("--read-token-required", cfg.api.read_token_required, "reading maps needs a token too");
   app.add_flag("--plain-uploads", cfg.api.plain_uploads,
                "take uploads over plain HTTP from other machines too (a TLS proxy on another machine forwards them); default: only from this machine");
@@ -112,6 +112,14 @@ int main(int argc, char** argv) {
   pl::cli::number(app, "--timestamp-lifetime", cfg.api.timestamp_lifetime_s, "seconds a signed current version stays valid: how long a "
                   "held-back answer can hide a newer version", pl::cli::between(10, 86400));
   pl::cli::number(app, "--cache-mb", cache_mb, "memory for tiles served often, MB", pl::cli::between(0, 1 << 20));
+  app.add_option("--viewer-dir", cfg.api.viewer_dir, "the map viewer's files, served at /viewer/ (default: the installed viewer "
+                 "beside this binary, else the build's, " + pl::server::default_viewer_dir() + ")")->type_name("DIR");
+  pl::cli::number(app, "--event-streams", cfg.api.max_event_streams, "event streams (GET /v1/maps/{map}/events) open at once, 503 beyond",
+                  pl::cli::between(1, 100000));
+  pl::cli::number(app, "--vehicles", cfg.api.max_vehicles, "live vehicles kept (POST /v1/maps/{map}/vehicles/{id}), 503 for a new one beyond",
+                  pl::cli::between(1, 1000000));
+  pl::cli::number(app, "--vehicle-timeout", cfg.api.vehicle_timeout_s, "seconds a vehicle stays listed after its last report",
+                  pl::cli::between(1, 86400));
   app.add_flag("--quiet", quiet, "no access log");
   app.add_flag("--log-json", cfg.api.log_json, "log as JSON lines (time, level, msg, request_id, ...) for a log collector");
   app.set_config("--config", "", "a file of these options, one NAME = VALUE a line (TOML: db = \"/var/lib/pl/maps.sqlite\", "
@@ -130,6 +138,9 @@ int main(int argc, char** argv) {
     cfg.access_log = !quiet;
     if (!pl::store::is_postgres_url(cfg.api.db) && !pl::file_exists(cfg.api.db)) throw pl::Error(cfg.api.db + ": no such map store (create one with pl-map tile)");
     if (!tokens.empty()) add_tokens(cfg.api.db, tokens);
+    if (!cfg.api.viewer_dir.empty() && !pl::file_exists(cfg.api.viewer_dir + "/index.html"))
+      throw pl::Error("--viewer-dir " + cfg.api.viewer_dir + ": no index.html there (give the folder the build assembles, BUILD_DIR/viewer, "
+                      "or the installed PREFIX/share/pointlocalization/viewer)");
     pl::server::Server server(cfg);
     std::string where;
     for (const auto& a : server.addresses()) where += (where.empty() ? "" : ", ") + a;
@@ -137,6 +148,12 @@ int main(int argc, char** argv) {
     const std::string url = "http://" + (v6 ? "[" + cfg.host + "]" : cfg.host) + ":" + std::to_string(server.port());
     say(stdout, "info", "listening on " + url + " (" + where + "; " + std::to_string(cfg.threads) + " threads, map store " +
                             pl::store::display_name(cfg.api.db) + ")");
+    const std::string viewer = cfg.api.viewer_dir.empty() ? pl::server::default_viewer_dir() : cfg.api.viewer_dir;
+    if (pl::file_exists(viewer + "/index.html"))
+      say(stdout, "info", "map viewer at " + url + "/viewer/ (files in " + viewer + ")");
+    else
+      say(stderr, "warning", "no map viewer: " + (viewer.empty() ? std::string("this build has none") : viewer + " holds no index.html") +
+                                 " (build it: cmake --build BUILD_DIR --target viewer; or give --viewer-dir)");
     std::fflush(stdout);
     server.run();
     say(stdout, "info", "stopped");

@@ -5,6 +5,7 @@
 #include "pl/client/change_evidence.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -73,6 +74,7 @@ void ChangeEvidenceConfig::validate() const {
   need(min_travel_m >= 0, "min_travel_m must be 0 or more");
   need(corridor_m >= 0 && corridor_m <= 5, "corridor_m must be within 0..5 m");
   need(max_cells_per_tile >= 1, "max_cells_per_tile must be 1 or more");
+  need(sample_m >= 0.02 && sample_m <= voxel_m, "sample_m must be within 0.02 m .. voxel_m");
 }
 
 struct ChangeEvidence::Impl {
@@ -86,6 +88,14 @@ struct ChangeEvidence::Impl {
   std::vector<Return> returns;
   std::size_t compact_at = 1u << 20;
   std::unordered_set<std::uint64_t> swept;  // voxels of the corridor the sensor drove along
+  // The added structure's sample (sample_m grid): the returns' sum, and the scans that found it.
+  struct Sample {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    std::uint32_t returns = 0, scans = 0, at = 0;
+  };
+  std::unordered_map<std::uint64_t, Sample> samples;
+  std::vector<std::uint64_t> added_now;  // this scan's added voxels
+  std::size_t samples_compact_at = 1u << 20;
   bool have_last = false;
   Eigen::Vector3d last = Eigen::Vector3d::Zero();  // the last evidence scan's sensor position
 };
@@ -153,13 +163,17 @@ bool ChangeEvidence::add(const Eigen::Isometry3d& sensor_in_map, const std::vect
   m.thinned.clear();
   m.returns.clear();
   const double r0 = cfg_.min_range_m * cfg_.min_range_m, r1 = cfg_.max_range_m * cfg_.max_range_m;
+  // Point i within the ranges: where it lies in the map frame, and its voxel.
+  auto in_map = [&](std::size_t i, Eigen::Vector3d& q, std::int64_t& x, std::int64_t& y, std::int64_t& z) {
+    const double r2 = static_cast<double>(points[i].squaredNorm());
+    if (!(r2 >= r0 && r2 <= r1)) return false;
+    q = sensor_in_map * points[i].cast<double>();
+    return voxel(q, x, y, z);
+  };
   for (std::size_t i = 0; i < points.size(); ++i) {
-    const Eigen::Vector3f& p = points[i];
-    const double r2 = static_cast<double>(p.squaredNorm());
-    if (!(r2 >= r0 && r2 <= r1)) continue;
-    const Eigen::Vector3d q = sensor_in_map * p.cast<double>();
+    Eigen::Vector3d q;
     std::int64_t x, y, z;
-    if (!voxel(q, x, y, z)) continue;
+    if (!in_map(i, q, x, y, z)) continue;
     const std::uint64_t key = pack(x, y, z);
     if (!m.thinned.insert(key).second) continue;
     m.returns.push_back({q, origins.empty() ? origin : sensor_in_map * origins[i].cast<double>(), key});
@@ -183,7 +197,29 @@ bool ChangeEvidence::add(const Eigen::Isometry3d& sensor_in_map, const std::vect
     } else {
       voxel(q, x, y, z);
       Cell& c = cell_at(ret.key, x, y, z);
+      if (c.added_at != scan) m.added_now.push_back(ret.key);
       count_once(c.added, c.added_at, scan);
+    }
+  }
+
+  // The added structure, finer: every return in this scan's added voxels with no map surface within
+  // delta, on the sample grid (a voxel's first return decided it added; its others may lie on the map).
+  if (!m.added_now.empty()) {
+    const std::unordered_set<std::uint64_t> added_now(m.added_now.begin(), m.added_now.end());
+    m.added_now.clear();
+    const double sv = cfg_.sample_m;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      Eigen::Vector3d q;
+      std::int64_t x, y, z;
+      if (!in_map(i, q, x, y, z) || !added_now.count(pack(x, y, z))) continue;
+      if (map.nearest((q - anchor).cast<float>(), delta2).point) continue;
+      const std::int64_t sx = static_cast<std::int64_t>(std::floor(q.x() / sv)), sy = static_cast<std::int64_t>(std::floor(q.y() / sv)),
+                         sz = static_cast<std::int64_t>(std::floor(q.z() / sv));
+      if (!in_range(sx) || !in_range(sy) || !in_range(sz)) continue;
+      Impl::Sample& smp = m.samples[pack(sx, sy, sz)];
+      smp.sum += q;
+      ++smp.returns;
+      count_once(smp.scans, smp.at, scan);
     }
   }
 
@@ -248,6 +284,15 @@ bool ChangeEvidence::add(const Eigen::Isometry3d& sensor_in_map, const std::vect
     }
     m.compact_at = std::max<std::size_t>(1u << 20, 2 * m.cells.size());
   }
+  if (m.samples.size() > m.samples_compact_at) {  // a sample one scan saw, of a tile left, will not be reported
+    for (auto it = m.samples.begin(); it != m.samples.end();) {
+      const Eigen::Vector3d c = it->second.sum / it->second.returns;
+      const auto t = m.tiles.find(grid_.key_of(c.x(), c.y()));
+      const bool left = t == m.tiles.end() || scan - t->second.second > 50;
+      it = it->second.scans < 2 && left ? m.samples.erase(it) : std::next(it);
+    }
+    m.samples_compact_at = std::max<std::size_t>(1u << 20, 2 * m.samples.size());
+  }
   ms_.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   return true;
 }
@@ -295,6 +340,36 @@ std::vector<schema::TileChangeEvidence> ChangeEvidence::tiles() const {
     out.push_back(std::move(e));
   }
   std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.key < b.key; });
+
+  // The sample of the added structure: in the voxels reported added, the sample voxels two or more
+  // scans found added (one scan's may be a thing passing), as the report's checks want them.
+  std::unordered_map<std::uint64_t, std::size_t> added_in;  // reported added voxel -> its tile in `out`
+  for (std::size_t i = 0; i < out.size(); ++i)
+    for (const schema::ChangeCell& c : out[i].cells)
+      if (c.added > 0) added_in.emplace(pack(c.x, c.y, c.z), i);
+  std::vector<std::vector<std::pair<std::uint32_t, std::array<std::int32_t, 3>>>> sampled(out.size());
+  for (const auto& [key, smp] : m.samples) {
+    if (smp.scans < 2) continue;
+    const Eigen::Vector3d mean = smp.sum / smp.returns * 100.0;
+    if (!(mean.cwiseAbs().maxCoeff() < 2.0e9)) continue;
+    const std::array<std::int32_t, 3> cm{static_cast<std::int32_t>(std::lround(mean.x())), static_cast<std::int32_t>(std::lround(mean.y())),
+                                         static_cast<std::int32_t>(std::lround(mean.z()))};
+    const auto vx = schema::voxel_of_cm(cm, v);
+    const auto it = added_in.find(pack(vx[0], vx[1], vx[2]));
+    if (it != added_in.end()) sampled[it->second].push_back({smp.scans, cm});
+  }
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    auto& pts = sampled[i];
+    if (pts.size() > cfg_.max_points_per_tile) {  // the points most scans saw
+      std::nth_element(pts.begin(), pts.begin() + static_cast<std::ptrdiff_t>(cfg_.max_points_per_tile), pts.end(),
+                       [](const auto& a, const auto& b) { return std::tie(b.first, a.second) < std::tie(a.first, b.second); });
+      pts.resize(cfg_.max_points_per_tile);
+    }
+    out[i].points.reserve(pts.size());
+    for (const auto& [scans, p] : pts) out[i].points.push_back(p);
+    std::sort(out[i].points.begin(), out[i].points.end());
+    out[i].points.erase(std::unique(out[i].points.begin(), out[i].points.end()), out[i].points.end());
+  }
   return out;
 }
 

@@ -34,8 +34,8 @@ PL_MEMBERS(PlaceConfig, 3);
 PL_MEMBERS(LidarOdometryConfig, 9);
 PL_MEMBERS(LocalizerConfig, 15);
 PL_MEMBERS(registration::PoseSearch, 7);
-PL_MEMBERS(TileClientConfig, 14);
-PL_MEMBERS(ChangeEvidenceConfig, 13);
+PL_MEMBERS(TileClientConfig, 15);
+PL_MEMBERS(ChangeEvidenceConfig, 15);
 PL_MEMBERS(VehicleLocalizerConfig, 15);
 #undef PL_MEMBERS
 
@@ -223,6 +223,8 @@ void add(Table t, TileClientConfig& c) {
   FIELD(fleet_keys, "PEM file of the fleet's Ed25519 public key(s): only versions signed with one are used; empty: no check");
   FIELD(timestamp_keys, "PEM file of the map service's timestamp public key(s) (needs fleet_keys): start only on a version a fresh signed "
                         "statement names current, or the newest verified; empty: the map answer's current version");
+  FIELD(follow_s, "ask the server this often which map version is current, and move to a newer one mid-drive at a safe moment "
+                  "(0: stay on the version of the start), s");
 }
 
 void add(Table t, ChangeEvidenceConfig& c) {
@@ -239,6 +241,8 @@ void add(Table t, ChangeEvidenceConfig& c) {
   FIELD(min_travel_m, "evidence from an ok scan once the sensor moved this far since the last one that gave some, m");
   FIELD(corridor_m, "what was added within this of the sensor's own path is no evidence (the vehicle drove there), m");
   FIELD(max_cells_per_tile, "a report's bound: voxels per tile, those with most evidence kept");
+  FIELD(sample_m, "the added structure is sampled on this grid for the map update (the map's voxel), m");
+  FIELD(max_points_per_tile, "a report's bound: sample points per tile, those most scans saw kept");
 }
 
 void add(Table t, VehicleLocalizerConfig& c) {

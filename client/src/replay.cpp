@@ -115,6 +115,10 @@ ReplayResult replay(const Dataset& ds, VehicleLocalizer& loc, const ReplayOption
     out.total_ms.push_back(latency * 1000.0);
     out.lidar_fused += r.fused_lidar;
     out.outdated += r.map_outdated;
+    if (r.fused_lidar) {
+      out.unpaired_sum += 1.0 - r.icp.inlier_share;
+      ++out.unpaired_scans;
+    }
     (r.health == Health::Ok ? out.ok : r.health == Health::Degraded ? out.degraded : out.lost)++;
     if (o.timing)
       std::fprintf(o.timing, "%zu,%.6f,%.3f,%.3f,%.3f,%.3f,%zu,%d,%d,%.4f,%.4f,%.4f,%.4f,%.5f,%.3f,%.3f,%s,%s,%.4f,%.4f,%.3f,%.3f,%d,%d,%s,%d,%s\n", i,

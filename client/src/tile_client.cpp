@@ -120,6 +120,13 @@ struct TileClient::Impl {
   std::optional<std::pair<signing::SignedManifest, std::string>> floor_manifest;
   std::optional<std::string> signed_places; // under mu: with fleet keys, the places' hash the version's manifest gives (none: it has none)
 
+  // Under mu: seed()'s tiles by hash.
+  std::map<std::string, MapTile> seeds;
+  std::size_t seeded = 0;  // under mu
+  long long latest = 0;    // under mu: the current version the server named last (cfg.follow_s)
+  // The thread's: when to ask which version is current next (cfg.follow_s).
+  Clock::time_point follow_at = Clock::time_point::min();
+
   std::thread thread;
 
   // Throws pl::Error for a malformed server URL, then for a disk cache it cannot open.
@@ -154,6 +161,7 @@ struct TileClient::Impl {
     held_back.clear();
     blocked_gen = UINT64_MAX;
     std::lock_guard<std::mutex> lock(mu);
+    if (ready && manifest.version != m.version) seeds.clear();  // a re-pin: the seeds were for the first version
     manifest = m;
     grid = g;
     pinned = m.version;
@@ -334,6 +342,17 @@ struct TileClient::Impl {
     return true;
   }
 
+  // With cfg.follow_s: asks which version is current when it is time (a fresh signed statement with
+  // timestamp keys, else the map answer). Returns whether it asked. Throws RequestFailed.
+  bool follow() {
+    if (cfg.follow_s <= 0 || Clock::now() < follow_at || !server.may_ask()) return false;
+    follow_at = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(cfg.follow_s));
+    const long long v = !current_keys.empty() ? server.current(current_keys, nullptr) : server.manifest(std::nullopt).version;
+    std::lock_guard<std::mutex> lock(mu);
+    latest = v;
+    return true;
+  }
+
   // Returns false while a signed version's manifest cannot be had (the old version serves meanwhile).
   bool apply_pin(long long v) {
     CachedManifest m;
@@ -485,6 +504,23 @@ struct TileClient::Impl {
           break;
         }
         t = *row;
+        const auto seed = seeds.find(t.hash);
+        if (seed != seeds.end()) {  // the same bytes another version's client holds decoded
+          const MapTile tile = seed->second;
+          seeds.erase(seed);
+          std::size_t size = decoded_size(*tile.cloud);
+          auto evicted = memory.make_room(plan, rank, size);
+          if (!evicted) {
+            blocked_gen = plan.gen;
+            return o;
+          }
+          if (!evicted->empty()) reports.tiles_evicted(evicted->size());
+          memory.put(MapTile{t.key, t.hash, tile.cloud, tile.bytes}, size);
+          ++seeded;
+          changed.notify_all();
+          o.did = true;
+          return o;
+        }
       }
       if (disk.may_hold(t.hash)) {
         if (auto bytes = disk.blob(t, cfg.map, manifest.version)) {
@@ -529,9 +565,12 @@ struct TileClient::Impl {
           continue;
         }
         if (recheck_current()) continue;
+        if (follow()) continue;
         FetchPlan p = plan();
         Outcome o = step(p);
-        if (!o.did) sleep(p.gen, o.network_due || pending_pin.has_value(), unconfirmed() ? recheck.until() : kNever);
+        auto wake_at = unconfirmed() ? recheck.until() : kNever;
+        if (cfg.follow_s > 0) wake_at = std::min(wake_at, follow_at);
+        if (!o.did) sleep(p.gen, o.network_due || pending_pin.has_value(), wake_at);
       } catch (const RequestFailed&) {
         // counted and described; the backoff is running and the next step works from memory and disk
       } catch (const std::exception& e) {
@@ -585,6 +624,7 @@ TileClient::TileClient(TileClientConfig cfg) {
   need(cfg.timeout_s > 0 && std::isfinite(cfg.timeout_s), "timeout_s must be a positive number of seconds");
   need(cfg.retry_min_s > 0 && cfg.retry_max_s >= cfg.retry_min_s && std::isfinite(cfg.retry_max_s),
        "retry_min_s must be positive and retry_max_s at least retry_min_s");
+  need(cfg.follow_s >= 0 && std::isfinite(cfg.follow_s), "follow_s must be 0 (stay on the version) or a number of seconds");
   // The disk cache is opened here so that a bad path fails at once; used by the background thread
   // only from now on.
   auto load = [](const std::string& file, const char* name) {
@@ -652,6 +692,13 @@ bool TileClient::wait_for(const Eigen::Vector2d& center, double radius, double t
   return done;
 }
 
+void TileClient::seed(const std::vector<MapTile>& tiles) {
+  std::lock_guard<std::mutex> lock(impl_->mu);
+  for (const MapTile& t : tiles)
+    if (t.cloud) impl_->seeds.emplace(t.hash, t);
+  impl_->bump();
+}
+
 void TileClient::pin_version(long long version) {
   if (version < 1) throw Error("TileClient::pin_version: versions are numbered from 1, got " + std::to_string(version));
   std::lock_guard<std::mutex> lock(impl_->mu);
@@ -708,6 +755,8 @@ TileClientStatus TileClient::status() const {
   s.newest_verified = impl_->newest_verified;
   s.tiles_in_memory = impl_->memory.count();
   s.bytes_in_memory = impl_->memory.bytes();
+  s.latest = impl_->latest;
+  s.seeded = impl_->seeded;
   return s;
 }
 

@@ -41,7 +41,14 @@ struct VehicleLocalizer::Impl {
   std::unique_ptr<TileClient> client;
   std::unique_ptr<StoreTiles> store;
   double tile_size = 0;
-  long long version = 0;
+  std::atomic<long long> version{0};
+  // Following the map's versions (cfg.tiles.follow_s): the client of a newer version loading its
+  // tiles beside the one in use, the one it replaced (gone at the next scan: by then idle), the
+  // version refused (another frame), and the moves made. The worker's own; read under m.
+  TileClientConfig client_cfg;
+  std::unique_ptr<TileClient> next, retired;
+  long long refused_version = 0;
+  std::size_t version_moves = 0;
   GeoPoint origin;
   std::unique_ptr<Localizer> loc;
   std::unique_ptr<ChangeEvidence> evidence;  // touched by the worker while busy, read when not
@@ -183,8 +190,55 @@ struct VehicleLocalizer::Impl {
     return true;
   }
 
+  // A newer version of the map moves in at a safe moment, its tiles loaded first: the client of
+  // the new version is made beside the one in use, seeded with the tiles the versions share (an
+  // update changes few), and focused where the vehicle goes; once the last scan was ok and every
+  // tile round the vehicle is in, it replaces the one in use between two scans. The ROI map then
+  // takes the changed tiles (by their hashes) and keeps the others; the pose and the filter go on
+  // as they were (the versions share the map frame: one with another origin or grid is refused).
+  // The change evidence restarts: what was seen against the old version is no report of the new.
+  // With the lock held; from the worker, before a scan.
+  void follow_versions(std::unique_lock<std::mutex>& lk) {
+    if (!client || client_cfg.follow_s <= 0) return;
+    if (retired) {
+      auto old = std::move(retired);
+      lk.unlock();
+      old.reset();  // joins its thread, idle since the move
+      lk.lock();
+    }
+    if (!next) {
+      const long long latest = client->status().latest;
+      if (latest <= version || latest == refused_version) return;
+      TileClientConfig tc = client_cfg;
+      tc.version = latest;
+      tc.follow_s = 0;
+      next = std::make_unique<TileClient>(tc);
+      next->seed(client->tiles_near(last_xy, tc.radius_m));
+      next->set_focus(last_xy, last_xy);
+      return;
+    }
+    const TileClientStatus ns = next->status();
+    if (!ns.ready) return;
+    if (ns.tile_size != tile_size || ns.origin.lat_deg != origin.lat_deg || ns.origin.lon_deg != origin.lon_deg ||
+        ns.origin.alt_m != origin.alt_m) {
+      error = "map " + client_cfg.map + " version " + std::to_string(ns.version) + " has another frame or grid than version " +
+              std::to_string(version.load()) + " (origin or tile size): it is not taken mid-drive; restart the vehicle's localizer on it";
+      refused_version = ns.version;
+      retired = std::move(next);
+      return;
+    }
+    if (!have_report || last.health != Health::Ok) return;  // not while the localization is in doubt
+    if (!next->wait_for(last_xy, cfg.localizer.roi_radius_m, 0.0)) return;  // its tiles round the vehicle are not all in yet
+    retired = std::move(client);
+    client = std::move(next);
+    version = ns.version;
+    ++version_moves;
+    if (evidence) evidence = std::make_unique<ChangeEvidence>(cfg.changes, tile_size);
+  }
+
   // One scan: predict, focus the tiles, prepare, register (unlocked), fuse. Called with the lock held.
   void process(ScanJob& job, std::unique_lock<std::mutex>& lk) {
+    follow_versions(lk);
     const double t = job.t;
     Prediction predicted = loc->predict(t);
     if (!job.times.empty()) predicted.compensated = deskew(job);
@@ -193,6 +247,7 @@ struct VehicleLocalizer::Impl {
     const Eigen::Vector2d velocity =
         t > last_scan_t ? Eigen::Vector2d((xy - last_xy) / (t - last_scan_t)) : Eigen::Vector2d::Zero();
     if (client) client->set_focus(xy, xy + cfg.lookahead_s * velocity);
+    if (next) next->set_focus(xy, xy + cfg.lookahead_s * velocity);
     const double t0 = now_ms();
     const Scan prepared = prepare_scan(job.points, job.rings, cfg.localizer.scan);
     const double prep = now_ms() - t0;
@@ -286,6 +341,7 @@ VehicleLocalizer::VehicleLocalizer(const VehicleLocalizerConfig& cfg) : impl_(st
   } else {
     TileClientConfig tc = cfg.tiles;
     tc.radius_m = std::max(tc.radius_m, cfg.localizer.roi_radius_m + 20.0);
+    m.client_cfg = tc;
     m.client = std::make_unique<TileClient>(tc);
     if (!m.client->wait_ready(cfg.ready_timeout_s))
       throw Error("no map '" + tc.map + "' from " + tc.server + " and none in the disk cache (" + m.client->status().last_error +
@@ -305,7 +361,7 @@ VehicleLocalizer::VehicleLocalizer(const VehicleLocalizerConfig& cfg) : impl_(st
   const std::optional<std::string> places = m.store ? m.store->places() : m.client->places(cfg.ready_timeout_s);
   if (places) {
     // Damaged places do not stop the vehicle: it localizes without them and says so.
-    const std::string source = "places of map " + cfg.tiles.map + " version " + std::to_string(m.version);
+    const std::string source = "places of map " + cfg.tiles.map + " version " + std::to_string(m.version.load());
     try {
       m.loc->set_places(std::make_shared<const registration::PlaceIndex>(registration::PlaceIndex::decode(*places, source)),
                         [raw](const Eigen::Vector2d& c, double r) { return raw->tiles_far(c, r); });
@@ -348,7 +404,7 @@ void VehicleLocalizer::start_near(const Eigen::Isometry3d& rough_base_in_map, do
 void VehicleLocalizer::start_global(double t) {
   if (!std::isfinite(t)) throw Error("VehicleLocalizer::start_global: the time must be finite");
   if (!impl_->loc->has_places())
-    throw Error("VehicleLocalizer::start_global: map " + impl_->cfg.tiles.map + " version " + std::to_string(impl_->version) +
+    throw Error("VehicleLocalizer::start_global: map " + impl_->cfg.tiles.map + " version " + std::to_string(impl_->version.load()) +
                 " has no places to search by: rebuild it with pl-map build and pl-map tile, or start from a pose");
   std::lock_guard<std::mutex> lk(impl_->m);
   impl_->started = false;
@@ -490,6 +546,13 @@ VehicleLocalizer::ChangeStats VehicleLocalizer::change_stats() const {
 double VehicleLocalizer::tile_size() const { return impl_->tile_size; }
 GeoPoint VehicleLocalizer::map_origin() const { return impl_->origin; }
 long long VehicleLocalizer::map_version() const { return impl_->version; }
-TileClientStatus VehicleLocalizer::tile_status() const { return impl_->client ? impl_->client->status() : TileClientStatus{}; }
+TileClientStatus VehicleLocalizer::tile_status() const {
+  std::lock_guard<std::mutex> lk(impl_->m);  // the worker replaces the client when the map's version moves
+  return impl_->client ? impl_->client->status() : TileClientStatus{};
+}
+std::size_t VehicleLocalizer::version_moves() const {
+  std::lock_guard<std::mutex> lk(impl_->m);
+  return impl_->version_moves;
+}
 
 }  // namespace pl::client

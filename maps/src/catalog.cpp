@@ -1,5 +1,7 @@
 #include "pl/maps/catalog.hpp"
 
+#include "pl/maps/map_update.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdarg>
@@ -8,6 +10,7 @@
 
 #include "pl/common/error.hpp"
 #include "pl/common/text.hpp"
+#include "pl/maps/map_update.hpp"
 
 namespace pl::maps {
 
@@ -141,14 +144,23 @@ VersionDiff diff_versions(const store::Store& s, const std::string& map, std::in
     if (!s.find_version(map, v)) throw Error("map " + map + " has no version " + std::to_string(v));
   const auto a = tile_hashes(s, map, from), b = tile_hashes(s, map, to);
   VersionDiff d;
+  // Why a tile changed, where an update (pl-map update) said so: the reasons logged by the versions
+  // from `from` (exclusive) to `to`, the latest word on a tile kept.
+  std::map<TileKey, std::string> why;
+  for (std::int64_t v = std::min(from, to) + 1; v <= std::max(from, to); ++v)
+    for (auto& [k, reason] : update_reasons(s, map, v)) why[k] = "v" + std::to_string(v) + " update: " + reason;
+  auto because = [&](const TileKey& k) {
+    const auto it = why.find(k);
+    return it == why.end() ? std::string() : "  (" + it->second + ")";
+  };
   for (const auto& [k, h] : b) {
     const auto it = a.find(k);
     if (it == a.end()) {
       ++d.added;
-      append_format(d.text, "+ %d %d\n", k.tx, k.ty);
+      append_format(d.text, "+ %d %d%s\n", k.tx, k.ty, because(k).c_str());
     } else if (it->second != h) {
       ++d.changed;
-      append_format(d.text, "~ %d %d\n", k.tx, k.ty);
+      append_format(d.text, "~ %d %d%s\n", k.tx, k.ty, because(k).c_str());
     } else {
       ++d.unchanged;
     }
@@ -156,7 +168,7 @@ VersionDiff diff_versions(const store::Store& s, const std::string& map, std::in
   for (const auto& [k, h] : a)
     if (!b.count(k)) {
       ++d.removed;
-      append_format(d.text, "- %d %d\n", k.tx, k.ty);
+      append_format(d.text, "- %d %d%s\n", k.tx, k.ty, because(k).c_str());
     }
   append_format(d.text, "v%lld -> v%lld: %zu added, %zu removed, %zu changed, %zu unchanged\n", static_cast<long long>(from),
          static_cast<long long>(to), d.added, d.removed, d.changed, d.unchanged);

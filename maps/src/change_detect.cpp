@@ -25,6 +25,7 @@ std::uint64_t key_of(std::int64_t x, std::int64_t y, std::int64_t z) {
 
 struct PassCells {
   const ChangeReport* report;
+  const schema::TileChangeEvidence* tile;
   std::vector<const ChangeCell*> added, removed;
 };
 
@@ -81,7 +82,7 @@ ChangeSummary detect_changes(const std::vector<ChangeReport>& reports, std::int6
   for (const ChangeReport* p : passes)
     for (const schema::TileChangeEvidence& t : p->tiles) {
       if (t.scans < rule.min_scans) continue;
-      PassCells pc{p, {}, {}};
+      PassCells pc{p, &t, {}, {}};
       for (const ChangeCell& c : t.cells) {
         if (c.added >= rule.added_min && c.added >= rule.added_free_ratio * c.free) pc.added.push_back(&c);
         if (c.passed >= rule.removed_min && c.passed >= rule.removed_seen_ratio * c.seen) pc.removed.push_back(&c);
@@ -111,9 +112,11 @@ ChangeSummary detect_changes(const std::vector<ChangeReport>& reports, std::int6
     for (const PassCells& pc : judged) {
       tc.passes.push_back({pc.report->vehicle, pc.report->drive, pc.report->start});
       std::size_t n = 0;
+      std::set<std::tuple<std::int32_t, std::int32_t, std::int32_t>> agreed_added;
       for (const ChangeCell* c : pc.added)
         if (agreed(c)) {
           ++n;
+          agreed_added.insert({c->x, c->y, c->z});
           ChangeCell& s = added.try_emplace({c->x, c->y, c->z}, ChangeCell{c->x, c->y, c->z, 0, 0, 0, 0}).first->second;
           s.added += c->added, s.free += c->free, s.seen += c->seen, s.passed += c->passed;
         }
@@ -124,7 +127,13 @@ ChangeSummary detect_changes(const std::vector<ChangeReport>& reports, std::int6
           s.added += c->added, s.free += c->free, s.seen += c->seen, s.passed += c->passed;
         }
       tc.agreed = std::max(tc.agreed, n);
+      for (const auto& q : pc.tile->points) {  // the new structure: this pass's sample of its agreed voxels
+        const auto v = schema::voxel_of_cm(q, out.voxel_m);
+        if (agreed_added.count({v[0], v[1], v[2]})) tc.points.push_back(q);
+      }
     }
+    std::sort(tc.points.begin(), tc.points.end());
+    tc.points.erase(std::unique(tc.points.begin(), tc.points.end()), tc.points.end());
     tc.candidate = tc.agreed >= rule.min_cells && static_cast<int>(judged.size()) >= rule.min_drives;
     for (auto& [k, c] : added) tc.added.push_back(c);
     for (auto& [k, c] : removed) tc.removed.push_back(c);

@@ -19,14 +19,6 @@ using json = nlohmann::json;
 constexpr int kFormatVersion = 1;
 constexpr std::size_t kCellFields = 7;
 
-// An id of a vehicle or a drive: 1 to 128 of [A-Za-z0-9_.:-].
-bool valid_id(const std::string& s) {
-  if (s.empty() || s.size() > 128) return false;
-  return std::all_of(s.begin(), s.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '.' || c == ':' || c == '-';
-  });
-}
-
 const json& field(const json& j, const char* name, const char* where) {
   auto it = j.find(name);
   if (it == j.end()) throw Error(std::string("change report: ") + where + " has no \"" + name + "\"");
@@ -61,6 +53,19 @@ std::int64_t integer_field(const json& j, const char* name, const char* where, s
 
 }  // namespace
 
+bool valid_id(std::string_view s) {
+  if (s.empty() || s.size() > 128) return false;
+  return std::all_of(s.begin(), s.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '.' || c == ':' || c == '-';
+  });
+}
+
+std::array<std::int32_t, 3> voxel_of_cm(const std::array<std::int32_t, 3>& p, double voxel_m) {
+  std::array<std::int32_t, 3> v{};
+  for (int k = 0; k < 3; ++k) v[k] = static_cast<std::int32_t>(std::floor(p[k] / (100.0 * voxel_m)));
+  return v;
+}
+
 std::string change_report_json(const ChangeReport& r) {
   json tiles = json::array();
   for (const TileChangeEvidence& t : r.tiles) {
@@ -74,7 +79,14 @@ std::string change_report_json(const ChangeReport& r) {
       cells.push_back(c.seen);
       cells.push_back(c.passed);
     }
-    tiles.push_back({{"tx", t.key.tx}, {"ty", t.key.ty}, {"scans", t.scans}, {"cells", std::move(cells)}});
+    json tile = {{"tx", t.key.tx}, {"ty", t.key.ty}, {"scans", t.scans}, {"cells", std::move(cells)}};
+    if (!t.points.empty()) {
+      json points = json::array();
+      for (const auto& p : t.points)
+        for (std::int32_t v : p) points.push_back(v);
+      tile["points"] = std::move(points);
+    }
+    tiles.push_back(std::move(tile));
   }
   json j = {{"format", "pl-change-report"}, {"format_version", kFormatVersion}, {"map", r.map}, {"version", r.version},
             {"vehicle", r.vehicle}, {"drive", r.drive}, {"start", r.start}, {"end", r.end}, {"voxel_m", r.voxel_m},
@@ -123,7 +135,7 @@ ChangeReport parse_change_report(std::string_view text, const ChangeReportLimits
     throw Error("change report: " + std::to_string(tiles.size()) + " tiles, more than the " + std::to_string(limits.max_tiles) +
                 " a report may hold");
   const TileGrid grid(r.tile_m);
-  std::size_t cells_total = 0;
+  std::size_t cells_total = 0, points_total = 0;
   for (const json& t : tiles) {
     if (!t.is_object()) throw Error("change report: a tile must be an object");
     TileChangeEvidence e;
@@ -170,6 +182,37 @@ ChangeReport parse_change_report(std::string_view text, const ChangeReportLimits
           throw Error("change report: a tile's voxels must be in (x, y, z) order, each once");
       }
       e.cells.push_back(c);
+    }
+    auto pit = t.find("points");
+    if (pit != t.end()) {
+      const json& pts = *pit;
+      if (!pts.is_array() || pts.size() % 3 != 0)
+        throw Error("change report: a tile's \"points\" must be an array of 3 integers per point (x, y, z in centimetres)");
+      points_total += pts.size() / 3;
+      if (points_total > limits.max_points)
+        throw Error("change report: more than the " + std::to_string(limits.max_points) + " sample points a report may hold");
+      e.points.reserve(pts.size() / 3);
+      for (std::size_t i = 0; i < pts.size(); i += 3) {
+        std::array<std::int32_t, 3> p{};
+        for (std::size_t k = 0; k < 3; ++k) {
+          const json& x = pts[i + k];
+          if (!x.is_number_integer() ||
+              (x.is_number_unsigned() ? x.get<std::uint64_t>() > INT32_MAX : (x.get<std::int64_t>() < INT32_MIN || x.get<std::int64_t>() > INT32_MAX)))
+            throw Error("change report: a sample point's coordinates must be integers of 32 bits (centimetres)");
+          p[k] = static_cast<std::int32_t>(x.get<std::int64_t>());
+        }
+        if (!e.points.empty() && !(e.points.back() < p))
+          throw Error("change report: a tile's sample points must be in (x, y, z) order, each once");
+        // In a voxel the tile reports added (what is not reported added there is no new structure).
+        const auto v = voxel_of_cm(p, r.voxel_m);
+        const auto c = std::lower_bound(e.cells.begin(), e.cells.end(), v, [](const ChangeCell& a, const std::array<std::int32_t, 3>& b) {
+          return std::tie(a.x, a.y, a.z) < std::tie(b[0], b[1], b[2]);
+        });
+        if (c == e.cells.end() || c->x != v[0] || c->y != v[1] || c->z != v[2] || c->added == 0)
+          throw Error("change report: sample point (" + std::to_string(p[0]) + ", " + std::to_string(p[1]) + ", " + std::to_string(p[2]) +
+                      ") cm is not in a voxel of its tile with added > 0");
+        e.points.push_back(p);
+      }
     }
     r.tiles.push_back(std::move(e));
   }

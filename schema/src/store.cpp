@@ -1,5 +1,5 @@
 // The map store's SQLite backend: opening and migrating, maps and versions (tiles, blobs, tokens and the
-// upload log: store_tiles.cpp; places: store_places.cpp). See store.hpp for the semantics and
+// upload log: store_tiles.cpp; places: store_places.cpp; change reports: store_reports.cpp). See store.hpp for the semantics and
 // schema/NNN_*.sql for the tables. All values reach SQL through bound parameters; the only SQL built from strings are
 // PRAGMAs and savepoints whose text comes from this file (integers and fixed identifiers).
 #include "pl/schema/store.hpp"
@@ -332,6 +332,8 @@ const char* role_name(Role r) {
   switch (r) {
     case Role::Read:
       return "read";
+    case Role::Report:
+      return "report";
     case Role::Upload:
       return "upload";
     case Role::Admin:
@@ -342,6 +344,7 @@ const char* role_name(Role r) {
 
 std::optional<Role> parse_role(std::string_view name) {
   if (name == "read") return Role::Read;
+  if (name == "report") return Role::Report;
   if (name == "upload") return Role::Upload;
   if (name == "admin") return Role::Admin;
   return std::nullopt;

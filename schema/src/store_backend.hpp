@@ -22,6 +22,9 @@ namespace pl::store::detail {
 // The largest tile either engine stores: the SQLite connection's value limit, so that a store moves
 // between the engines (PostgreSQL's own limit for a bytea is 1 GB).
 inline constexpr std::size_t kMaxTileBytes = std::size_t{256} << 20;
+// The largest change report the store keeps: what the report's parser takes at most
+// (ChangeReportLimits::max_bytes, checked against it in store_facade.cpp).
+inline constexpr std::size_t kMaxReportBytes = std::size_t{32} << 20;
 // How many bytes of blobs an export reads from PostgreSQL at once (more when one blob is larger).
 inline constexpr std::size_t kCopyBatchBytes = std::size_t{32} << 20;
 
@@ -85,12 +88,21 @@ struct LogRow {
   std::string action, detail, who;
 };
 
+struct ReportRow {
+  std::int64_t id = 0, map_id = 0, version = 0;
+  std::string vehicle, drive;
+  double start = 0, end = 0;
+  std::string hash, body;  // body checked against the hash by the reader
+  std::string received, who;
+};
+
 // Where a store's rows go, table by table in this order (each announced by begin_table with its
-// number of rows), each table in key order: its id, blobs by hash. Blobs and places come one at a
-// time, so that a store larger than memory passes through.
+// number of rows), each table in key order: its id, blobs by hash. Blobs, places and change reports
+// come one at a time, so that a store larger than memory passes through. Change reports (schema 5)
+// come last, after the upload log: the tables before them keep the numbers they had.
 class RowSink {
  public:
-  enum class Table { Maps, Versions, Blobs, Tiles, Places, Signatures, Tokens, UploadLog };
+  enum class Table { Maps, Versions, Blobs, Tiles, Places, Signatures, Tokens, UploadLog, ChangeReports };
   virtual ~RowSink() = default;
   virtual void begin_table(Table, std::int64_t /*rows*/) {}
   virtual void map(const MapRow&) = 0;
@@ -101,13 +113,15 @@ class RowSink {
   virtual void signature(const SignatureRow&) = 0;
   virtual void token(const TokenRow&) = 0;
   virtual void log(const LogRow&) = 0;
+  virtual void report(const ReportRow&) = 0;
   // After the last row: what the writer left for the end (an importer: states, current versions).
   virtual void finish() {}
 };
 
-// The damaged error of export_rows for a blob or places whose bytes do not hash to their hash (or
-// whose size column disagrees), told apart from every other failure by checked_digest: a store
-// whose bytes changed is reported damaged, as integrity_ok reports it, not failed.
+// The damaged error of export_rows for a blob, places or change report whose bytes do not hash to
+// their hash (or whose size column disagrees), told apart from every other failure by
+// checked_digest: a store whose bytes changed is reported damaged, as integrity_ok reports it, not
+// failed.
 struct DamagedBytes : Error {
   using Error::Error;
 };
@@ -175,6 +189,15 @@ class StoreBackend {
                           const std::string& detail, const std::string& who) = 0;
   virtual std::vector<Store::LogEntry> upload_log(const std::string& map) const = 0;
 
+  // Change reports: Store has checked the ids, span, body size and who; `hash` is the body's.
+  virtual Store::ReportPut put_report(const std::string& map, std::int64_t version, const std::string& vehicle,
+                                      const std::string& drive, double start, double end, std::string_view body,
+                                      const std::string& hash, const std::string& who) = 0;
+  virtual std::vector<Store::ReportInfo> list_reports(const std::string& map, std::optional<std::int64_t> version) const = 0;
+  virtual std::optional<std::string> report_body(const std::string& map, std::int64_t id) const = 0;
+  // `received_before` is a timestamp as the store writes them (Store has checked it).
+  virtual std::int64_t delete_reports(const std::string& map, const std::string& received_before) = 0;
+
   // Store::Transaction: begin returns whether it is nested in an open one (a savepoint);
   // rollback_quietly never throws (it runs in a destructor).
   virtual bool begin_transaction() = 0;
@@ -186,18 +209,19 @@ class StoreBackend {
   virtual bool usable() const { return true; }
 
   virtual std::int64_t database_bytes() const = 0;
-  // Store::integrity_ok with `hash_bytes`; without it, every check but the hashes and sizes of blobs
-  // and places, for a caller that reads every blob through export_rows anyway, which checks them
-  // (DamagedBytes): the copy's read-back, checked_digest. Each blob is then read once, not twice.
+  // Store::integrity_ok with `hash_bytes`; without it, every check but the hashes and sizes of blobs,
+  // places and change reports, for a caller that reads every blob through export_rows anyway, which
+  // checks them (DamagedBytes): the copy's read-back, checked_digest. Each blob is then read once,
+  // not twice.
   virtual bool integrity_ok(bool hash_bytes) const = 0;
 
   // ---- the exact copy of a whole store (store_copy.cpp) ----
   // Hands every row to `out` (RowSink says in which order), read from one snapshot: a read
   // transaction of its own, or the transaction this connection has open (an importer's, to verify
   // what it wrote before committing). Every value is checked as the other reads check it
-  // (store_copy_rows.hpp); a blob or places whose bytes do not hash to their hash is the damaged
-  // error, a DamagedBytes. Blob and places bytes are
-  // read a few at a time (PostgreSQL: batches of at most kCopyBatchBytes), never all at once.
+  // (store_copy_rows.hpp); a blob, places or change report whose bytes do not hash to their hash is
+  // the damaged error, a DamagedBytes. Blob, places and report bytes are read a few at a time
+  // (PostgreSQL: batches of at most kCopyBatchBytes), never all at once.
   virtual void export_rows(RowSink& out) const = 0;
   // What the store holds of what makes it non-empty (StoreContent).
   virtual StoreContent content() const = 0;

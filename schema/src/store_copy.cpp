@@ -41,6 +41,8 @@ const char* table_name(Table t) {
       return "tokens";
     case Table::UploadLog:
       return "upload log";
+    case Table::ChangeReports:
+      return "change reports";
   }
   return "rows";
 }
@@ -48,8 +50,10 @@ const char* table_name(Table t) {
 // The canonical digest: SHA-256 over every row in export order (each table in key order), each
 // row a tag byte and its fields — integers as 8 bytes little-endian, doubles as their IEEE bits
 // (-0 as +0: SQLite keeps no sign on a zero), text and bytes with their length first, and a
-// presence byte before an optional value. Blobs and places enter by hash and size: their reader
-// has checked that the bytes hash to it.
+// presence byte before an optional value. Blobs, places and change reports enter by hash and size:
+// their reader has checked that the bytes hash to it. The change reports' table (schema 5) enters
+// only when it holds a report: a store without any has the digest it had before, so digests taken
+// before the upgrade still compare.
 class DigestSink final : public RowSink {
  public:
   DigestSink() : ctx_(EVP_MD_CTX_new()) {
@@ -59,7 +63,10 @@ class DigestSink final : public RowSink {
   DigestSink(const DigestSink&) = delete;
   DigestSink& operator=(const DigestSink&) = delete;
 
-  void begin_table(Table t, std::int64_t) override { tag(static_cast<unsigned char>(0x80 + static_cast<int>(t))); }
+  void begin_table(Table t, std::int64_t rows) override {
+    if (t == Table::ChangeReports && rows == 0) return;
+    tag(static_cast<unsigned char>(0x80 + static_cast<int>(t)));
+  }
   void map(const detail::MapRow& m) override {
     tag('M');
     put(m.id), put(m.name), put(m.origin_lat), put(m.origin_lon), put(m.origin_alt), put(m.tile_size);
@@ -94,6 +101,11 @@ class DigestSink final : public RowSink {
   void log(const detail::LogRow& e) override {
     tag('L');
     put(e.id), put(e.at), put(e.map), put(e.version), put(e.action), put(e.detail), put(e.who);
+  }
+  void report(const detail::ReportRow& r) override {
+    tag('R');
+    put(r.id), put(r.map_id), put(r.version), put(r.vehicle), put(r.drive), put(r.start), put(r.end), put(r.hash);
+    put(static_cast<std::int64_t>(r.body.size())), put(r.received), put(r.who);
   }
 
   std::string hex() {
@@ -178,6 +190,9 @@ class CopySink final : public RowSink {
   void log(const detail::LogRow& e) override {
     digest_.log(e), dest_.log(e), ++report_.log_entries, step();
   }
+  void report(const detail::ReportRow& r) override {
+    digest_.report(r), dest_.report(r), ++report_.reports, step();
+  }
   void finish() override { dest_.finish(); }
 
   std::string digest() { return digest_.hex(); }
@@ -212,13 +227,14 @@ class VerifySink final : public RowSink {
   void signature(const detail::SignatureRow& s) override { digest_.signature(s); }
   void token(const detail::TokenRow& t) override { digest_.token(t); }
   void log(const detail::LogRow& e) override { digest_.log(e); }
+  void report(const detail::ReportRow& r) override { digest_.report(r); }
   std::string digest() {
     if (progress_) progress_("verifying", kTables, kTables);
     return digest_.hex();
   }
 
  private:
-  static constexpr std::size_t kTables = static_cast<std::size_t>(Table::UploadLog) + 1;
+  static constexpr std::size_t kTables = static_cast<std::size_t>(Table::ChangeReports) + 1;
   const CopyProgress& progress_;
   DigestSink digest_;
 };
@@ -260,7 +276,7 @@ void copy_into(const detail::StoreBackend& src, detail::StoreBackend& dst, const
     if (copied != report.digest)
       throw Error(dst.path() + ": the copy does not read back as the original (content digest " + copied +
                   ", the original's " + report.digest + "): nothing was written; report this as a bug");
-    // The blobs' and places' hashes were checked by the read-back (export_rows): not read again.
+    // The hashes of the blobs, places and reports were checked by the read-back (export_rows): not read again.
     if (!dst.integrity_ok(false))
       throw Error(dst.path() + ": the copy fails the store's integrity check: nothing was written; report this as a bug");
     dst.commit_transaction(false);

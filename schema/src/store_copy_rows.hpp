@@ -14,6 +14,7 @@
 #include "pl/common/error.hpp"
 #include "pl/schema/api_rules.hpp"
 #include "pl/schema/store.hpp"
+#include "report_row.hpp"
 #include "store_backend.hpp"
 
 namespace pl::store::detail::copy_rows {
@@ -21,7 +22,7 @@ namespace pl::store::detail::copy_rows {
 inline constexpr std::int64_t kLowest = std::numeric_limits<std::int64_t>::min();
 inline constexpr std::int64_t kHighest = std::numeric_limits<std::int64_t>::max();
 
-// Blobs and places: the size column and the hash must both be those of the bytes.
+// Blobs, places and change reports: the size column and the hash must both be those of the bytes.
 template <typename R>
 bool bytes_sound(const R& row, int size_col, const std::string& hash, const std::string& bytes) {
   return row.integer(size_col, "size") == static_cast<std::int64_t>(bytes.size()) && content_hash(bytes) == hash;
@@ -29,9 +30,9 @@ bool bytes_sound(const R& row, int size_col, const std::string& hash, const std:
 
 // The damaged error, as DamagedBytes: the one damage that integrity_ok(false) leaves to the export.
 template <typename R>
-[[noreturn]] void bad_bytes(const R& row, const std::string& why) {
+[[noreturn]] void bad_bytes(const R& row, const std::string& why, const char* column = "bytes") {
   try {
-    row.bad("bytes", why);
+    row.bad(column, why);
   } catch (const Error& e) {
     throw DamagedBytes(e.what());
   }
@@ -134,7 +135,7 @@ TokenRow token_row(const R& row) {
   t.id = row.integer(0, "id", 1);
   t.hash = row.hash(1, "hash");
   auto role = parse_role(row.text(2, "role"));
-  if (!role) row.bad("role", "is not one of read, upload, admin");
+  if (!role) row.bad("role", "is not one of read, report, upload, admin");
   t.role = *role;
   t.note = row.text(3, "note");
   t.created = row.timestamp(4, "created");
@@ -154,6 +155,28 @@ LogRow log_row(const R& row) {
   e.detail = row.text(5, "detail");
   e.who = row.text(6, "who");
   return e;
+}
+
+// report_row.hpp's columns (id, version, vehicle, drive, start_s, end_s, hash, size, who), then
+// map_id, body, received
+template <typename R>
+ReportRow change_report_row(const R& row) {
+  const Store::ReportInfo info = report_row(row, 0);
+  ReportRow r;
+  r.id = info.id;
+  r.version = info.version;
+  r.vehicle = info.vehicle;
+  r.drive = info.drive;
+  r.start = info.start;
+  r.end = info.end;
+  r.hash = info.hash;
+  r.who = info.who;
+  r.map_id = row.integer(9, "map_id");
+  r.body = row.bytes(10, "body");
+  if (!bytes_sound(row, 7, r.hash, r.body))
+    bad_bytes(row, "of change report " + std::to_string(r.id) + " do not hash to its hash", "body");
+  r.received = row.timestamp(11, "received");
+  return r;
 }
 
 }  // namespace pl::store::detail::copy_rows

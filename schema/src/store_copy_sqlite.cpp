@@ -85,6 +85,11 @@ void SqliteStore::export_rows(RowSink& out) const {
   out.begin_table(Table::UploadLog, rows_of(db, "upload_log"));
   each_row(db, "upload_log", "SELECT id, at, map, version, action, detail, who FROM upload_log ORDER BY id", log_row<CopyRow>,
            [&](const LogRow& e) { out.log(e); });
+  out.begin_table(Table::ChangeReports, rows_of(db, "change_reports"));
+  each_row(db, "change_reports",
+           "SELECT id, version, vehicle, drive, start_s, end_s, hash, size, who, map_id, body, received "
+           "FROM change_reports ORDER BY id",
+           change_report_row<CopyRow>, [&](const ReportRow& r) { out.report(r); });
   if (snapshot) snapshot->end();
 }
 
@@ -113,7 +118,8 @@ namespace {
 //   version staged -> published — transitions versions_state_transition allows, with never two
 //   published versions of a map (versions_one_published) — and last each map's current version,
 //   which maps_current_is_published finds published;
-// - tokens, and the upload log, which its triggers let anyone append to.
+// - tokens, and the upload log, which its triggers let anyone append to;
+// - change reports, which no trigger watches on insert (versions in any state take them).
 // The R*Tree entries come from tiles_rtree_insert with the tiles' own ids; an explicit id in
 // upload_log (AUTOINCREMENT) moves sqlite_sequence past it, so later entries keep counting up.
 class SqliteImporter final : public RowSink {
@@ -222,6 +228,25 @@ class SqliteImporter final : public RowSink {
         .bind_text(5, e.action)
         .bind_text(6, e.detail)
         .bind_text(7, e.who)
+        .run();
+  }
+
+  void report(const ReportRow& r) override {
+    Stmt(db_,
+         "INSERT INTO change_reports (id, map_id, version, vehicle, drive, start_s, end_s, hash, body, size, received, "
+         "who) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)")
+        .bind_int64(1, r.id)
+        .bind_int64(2, r.map_id)
+        .bind_int64(3, r.version)
+        .bind_text(4, r.vehicle)
+        .bind_text(5, r.drive)
+        .bind_double(6, r.start)
+        .bind_double(7, r.end)
+        .bind_text(8, r.hash)
+        .bind_blob_static(9, r.body)
+        .bind_int64(10, static_cast<std::int64_t>(r.body.size()))
+        .bind_text(11, r.received)
+        .bind_text(12, r.who)
         .run();
   }
 

@@ -9,8 +9,11 @@
 #include <cmath>
 
 #include "pl/common/error.hpp"
+#include "pl/common/text.hpp"
 #include "pl/schema/api_rules.hpp"
+#include "pl/schema/change_report.hpp"
 #include "pl/schema/store.hpp"
+#include "report_row.hpp"
 #include "store_backend.hpp"
 
 namespace pl::store {
@@ -25,6 +28,32 @@ std::unique_ptr<detail::StoreBackend> detail::open_postgres(const std::string& u
   throw Error(url.substr(0, url.find("://") + 3) + "...: this build of PointLocalization has no PostgreSQL map store");
 }
 #endif
+
+static_assert(detail::kMaxReportBytes == schema::ChangeReportLimits{}.max_bytes,
+              "the store keeps every change report the parser takes, and no larger one");
+
+namespace {
+
+// "2024-05-01T10:11:12.345Z", as the store writes every timestamp, and a real date and time: the
+// engines compare it with theirs (SQLite as text, PostgreSQL as a timestamptz), and agree only then.
+bool valid_timestamp(const std::string& s) {
+  static const char shape[] = "dddd-dd-ddTdd:dd:dd.dddZ";
+  if (s.size() != sizeof(shape) - 1) return false;
+  for (std::size_t i = 0; i < s.size(); ++i)
+    if (shape[i] == 'd' ? !(s[i] >= '0' && s[i] <= '9') : s[i] != shape[i]) return false;
+  auto field = [&](std::size_t at, std::size_t n) {
+    int v = 0;
+    for (std::size_t i = at; i < at + n; ++i) v = 10 * v + (s[i] - '0');
+    return v;
+  };
+  const int year = field(0, 4), month = field(5, 2), day = field(8, 2);
+  const bool leap = (year % 4 == 0 && year % 100 != 0) || year % 400 == 0;
+  static const int days[] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+  return year >= 1 && month >= 1 && month <= 12 && day >= 1 && day <= days[month - 1] + (month == 2 && leap ? 1 : 0) &&
+         field(11, 2) <= 23 && field(14, 2) <= 59 && field(17, 2) <= 59;
+}
+
+}  // namespace
 
 std::string display_name(const std::string& db) { return is_postgres_url(db) ? detail::redact_url(db) : db; }
 
@@ -187,6 +216,37 @@ void Store::log_upload(const std::string& map, std::optional<std::int64_t> versi
   impl().log_upload(map, version, action, detail, who);
 }
 std::vector<Store::LogEntry> Store::upload_log(const std::string& map) const { return impl().upload_log(map); }
+
+Store::ReportPut Store::put_report(const std::string& map, std::int64_t version, const std::string& vehicle,
+                                   const std::string& drive, double start, double end, std::string_view body,
+                                   const std::string& who) {
+  if (!api::valid_map_name(map))
+    throw Error(path() + ": invalid map name \"" + printable(map, 80) + "\": use 1 to 64 of A-Z a-z 0-9 _ . -");
+  const std::string where = path() + ": map " + map + " version " + std::to_string(version) + ": change report";
+  if (!detail::valid_report_id(vehicle)) throw Error(where + ": the vehicle id must be 1 to 128 of A-Z a-z 0-9 _ . : -");
+  if (!detail::valid_report_id(drive)) throw Error(where + ": the drive id must be 1 to 128 of A-Z a-z 0-9 _ . : -");
+  const std::string of = where + " of vehicle " + vehicle + " drive " + drive;
+  if (!std::isfinite(start) || !std::isfinite(end) || !(start <= end))
+    throw Error(of + ": the drive's span must be finite times with start <= end (seconds since 1970)");
+  if (body.empty()) throw Error(of + ": empty report (a report is the JSON the vehicle sent)");
+  if (body.size() > detail::kMaxReportBytes)
+    throw Error(of + ": " + std::to_string(body.size()) + " bytes, more than the store's limit of " +
+                std::to_string(detail::kMaxReportBytes >> 20) + " MiB (send the drive's evidence in several reports)");
+  if (who.empty()) throw Error(of + ": empty sender (who: \"token 7\", as the upload log names them)");
+  return impl().put_report(map, version, vehicle, drive, start, end, body, content_hash(body), who);
+}
+std::vector<Store::ReportInfo> Store::list_reports(const std::string& map, std::optional<std::int64_t> version) const {
+  return impl().list_reports(map, version);
+}
+std::optional<std::string> Store::report_body(const std::string& map, std::int64_t id) const {
+  return impl().report_body(map, id);
+}
+std::int64_t Store::delete_reports(const std::string& map, const std::string& received_before) {
+  if (!valid_timestamp(received_before))
+    throw Error(path() + ": map " + map + ": delete_reports takes a UTC time as the store writes them, "
+                "YYYY-MM-DDTHH:MM:SS.sssZ (2024-05-01T10:11:12.345Z), got \"" + printable(received_before, 80) + "\"");
+  return impl().delete_reports(map, received_before);
+}
 
 Store::Transaction::Transaction(Store& store) : store_(store) { nested_ = store_.impl().begin_transaction(); }
 

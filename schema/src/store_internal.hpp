@@ -1,4 +1,4 @@
-// What store.cpp, store_tiles.cpp and store_places.cpp share: the file's identity, the row readers
+// What store.cpp, store_tiles.cpp, store_places.cpp and store_reports.cpp share: the file's identity, the row readers
 // and lookups of maps, versions and tiles. Private to pl_schema.
 #pragma once
 
@@ -26,6 +26,8 @@ VersionState read_state(const sqlite::Row& row, int col, const char* column);
 
 std::optional<std::int64_t> find_map_id(const sqlite::Db& db, const std::string& name);
 std::int64_t require_map(const sqlite::Db& db, const std::string& name);  // throws for an unknown map
+// The version's state; throws "PATH: map MAP has no version N" when there is no such version.
+VersionState require_version(const sqlite::Db& db, const std::string& map, std::int64_t map_id, std::int64_t number);
 // Throws unless the version exists and is staged (writes of tiles and places go to staged versions
 // only); `what` names what the caller writes in the message.
 void require_staged(const sqlite::Db& db, const std::string& map, std::int64_t map_id, std::int64_t number,
@@ -81,6 +83,13 @@ class SqliteStore final : public StoreBackend {
   void log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
                   const std::string& detail, const std::string& who) override;
   std::vector<Store::LogEntry> upload_log(const std::string& map) const override;
+  // Change reports (store_reports.cpp).
+  Store::ReportPut put_report(const std::string& map, std::int64_t version, const std::string& vehicle,
+                              const std::string& drive, double start, double end, std::string_view body,
+                              const std::string& hash, const std::string& who) override;
+  std::vector<Store::ReportInfo> list_reports(const std::string& map, std::optional<std::int64_t> version) const override;
+  std::optional<std::string> report_body(const std::string& map, std::int64_t id) const override;
+  std::int64_t delete_reports(const std::string& map, const std::string& received_before) override;
   bool begin_transaction() override;
   void commit_transaction(bool nested) override;
   void rollback_transaction_quietly(bool nested) noexcept override;

@@ -1,8 +1,9 @@
 // The map store over PostgreSQL: connecting, checking and migrating the database, transactions,
 // maps and versions (tiles, blobs, places, tokens, the upload log and maintenance:
-// store_pg_tiles.cpp). store_pg.hpp says how transactions and concurrency work. All values reach
-// SQL as parameters of statements prepared once per connection; the only SQL sent as text is
-// transaction control, the migrations and the checks at open (fixed text of this build).
+// store_pg_tiles.cpp; change reports: store_pg_reports.cpp). store_pg.hpp says how transactions
+// and concurrency work. All values reach SQL as parameters of statements prepared once per
+// connection; the only SQL sent as text is transaction control, the migrations and the checks at
+// open (fixed text of this build).
 #include "store_pg.hpp"
 
 #include <charconv>
@@ -269,6 +270,8 @@ void PgStore::prepare_statements() {
   for (std::size_t i = 0; i < kPgStatementCount; ++i) conn_->prepare(kPgStatements[i].name, kPgStatements[i].sql);
   for (std::size_t i = 0; i < kPgTileStatementCount; ++i)
     conn_->prepare(kPgTileStatements[i].name, kPgTileStatements[i].sql);
+  for (std::size_t i = 0; i < kPgReportStatementCount; ++i)
+    conn_->prepare(kPgReportStatements[i].name, kPgReportStatements[i].sql);
 }
 
 // ---- opening and migrating -----------------------------------------------------------------------

@@ -1,6 +1,7 @@
 // The map store over PostgreSQL (libpqxx): a StoreBackend over one connection to a database named
 // by a postgresql:// URL. store_pg.cpp: opening, migrating, transactions, maps and versions;
-// store_pg_tiles.cpp: tiles, blobs, places, tokens, the upload log and maintenance. The schema is
+// store_pg_tiles.cpp: tiles, blobs, places, tokens, the upload log and maintenance;
+// store_pg_reports.cpp: change reports. The schema is
 // schema/pg/NNN_*.sql, the SQLite schema concept for concept. Private to pl_schema.
 //
 // Transactions: libpqxx's transaction classes are scoped objects, one at a time per connection,
@@ -88,6 +89,13 @@ class PgStore final : public StoreBackend {
   void log_upload(const std::string& map, std::optional<std::int64_t> version, const std::string& action,
                   const std::string& detail, const std::string& who) override;
   std::vector<Store::LogEntry> upload_log(const std::string& map) const override;
+
+  Store::ReportPut put_report(const std::string& map, std::int64_t version, const std::string& vehicle,
+                              const std::string& drive, double start, double end, std::string_view body,
+                              const std::string& hash, const std::string& who) override;
+  std::vector<Store::ReportInfo> list_reports(const std::string& map, std::optional<std::int64_t> version) const override;
+  std::optional<std::string> report_body(const std::string& map, std::int64_t id) const override;
+  std::int64_t delete_reports(const std::string& map, const std::string& received_before) override;
 
   bool begin_transaction() override;
   void commit_transaction(bool nested) override;
@@ -241,5 +249,7 @@ extern const PgStatement kPgStatements[];
 extern const std::size_t kPgStatementCount;
 extern const PgStatement kPgTileStatements[];
 extern const std::size_t kPgTileStatementCount;
+extern const PgStatement kPgReportStatements[];
+extern const std::size_t kPgReportStatementCount;
 
 }  // namespace pl::store::detail

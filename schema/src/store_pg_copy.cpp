@@ -58,6 +58,25 @@ void by_pages(const PgStore& store, Work& w, const char* table, const std::strin
   }
 }
 
+// Hands out the rows of a table whose keys and sizes are `sizes` (column 0 the key, 1 the size, in
+// key order) in batches of at most kCopyBatchBytes (one row when it is larger): fetch(i, j) reads
+// and hands out rows i to j - 1, the keys from sizes[i] to sizes[j - 1].
+template <typename Fetch>
+void by_batches(const PgStore& store, const pqxx::result& sizes, const char* table, Fetch fetch) {
+  std::size_t i = 0;
+  while (i < sizes.size()) {
+    std::size_t j = i, batch = 0;
+    while (j < sizes.size()) {
+      const std::size_t n = static_cast<std::size_t>(PgRow(store, sizes[j], table).integer(1, "size", 0));
+      if (j > i && batch + n > kCopyBatchBytes) break;
+      batch += n;
+      ++j;
+    }
+    fetch(i, j);
+    i = j;
+  }
+}
+
 }  // namespace
 
 // ---- reading ---------------------------------------------------------------------------------------
@@ -87,15 +106,7 @@ void PgStore::export_rows(RowSink& out) const {
       {
         const pqxx::result sizes = w.exec("SELECT hash, size FROM blobs ORDER BY hash COLLATE \"C\"");
         out.begin_table(Table::Blobs, static_cast<std::int64_t>(sizes.size()));
-        std::size_t i = 0;
-        while (i < sizes.size()) {
-          std::size_t j = i, batch = 0;
-          while (j < sizes.size()) {
-            const std::size_t n = static_cast<std::size_t>(PgRow(*this, sizes[j], "blobs").integer(1, "size", 0));
-            if (j > i && batch + n > kCopyBatchBytes) break;
-            batch += n;
-            ++j;
-          }
+        by_batches(*this, sizes, "blobs", [&](std::size_t i, std::size_t j) {
           const std::string first = sizes[i][0].as<std::string>(), last = sizes[j - 1][0].as<std::string>();
           const pqxx::result r = w.exec_params(
               "SELECT hash, bytes, size FROM blobs WHERE hash COLLATE \"C\" >= $1 AND hash COLLATE \"C\" <= $2 "
@@ -103,8 +114,7 @@ void PgStore::export_rows(RowSink& out) const {
               first, last);
           if (r.size() != j - i) damaged("blobs changed while they were read");
           for (const auto& row : r) out.blob(blob_row(CopyRow(*this, row, "blobs")));
-          i = j;
-        }
+        });
       }
       out.begin_table(Table::Tiles, rows_of(w, "tiles"));
       by_pages(*this, w, "tiles",
@@ -131,6 +141,20 @@ void PgStore::export_rows(RowSink& out) const {
                "SELECT id, " PL_PG_TIMESTAMP("at") ", map, version, action, detail, who FROM upload_log "
                "WHERE id > $1" + page,
                log_row<CopyRow>, [&](const LogRow& e) { out.log(e); });
+      // Change reports (up to 32 MiB each): as the blobs, their sizes first, then the rows in
+      // batches of ids.
+      {
+        const pqxx::result sizes = w.exec("SELECT id, size FROM change_reports ORDER BY id");
+        out.begin_table(Table::ChangeReports, static_cast<std::int64_t>(sizes.size()));
+        by_batches(*this, sizes, "change_reports", [&](std::size_t i, std::size_t j) {
+          const pqxx::result r = w.exec_params(
+              "SELECT id, version, vehicle, drive, start_s, end_s, hash, size, who, map_id, body, " PL_PG_TIMESTAMP(
+                  "received") " FROM change_reports WHERE id >= $1 AND id <= $2 ORDER BY id",
+              sizes[i][0].as<std::int64_t>(), sizes[j - 1][0].as<std::int64_t>());
+          if (r.size() != j - i) damaged("change reports changed while they were read");
+          for (const auto& row : r) out.report(change_report_row(CopyRow(*this, row, "change_reports")));
+        });
+      }
       if (own) w.exec("COMMIT");
     } catch (...) {
       if (own) {
@@ -175,7 +199,8 @@ namespace {
 //   version staged -> published — transitions versions_state_transition allows, with never two
 //   published versions of a map (versions_one_published) — and last each map's current version,
 //   which maps_current_is_published finds published;
-// - tokens, and the upload log, which its triggers let anyone append to.
+// - tokens, and the upload log, which its triggers let anyone append to;
+// - change reports, which no trigger watches on insert (versions in any state take them).
 // The ids are GENERATED ALWAYS: OVERRIDING SYSTEM VALUE gives each row its own, and finish() moves
 // every identity sequence past the largest id, so that later rows get new ids.
 class PgImporter final : public RowSink {
@@ -270,6 +295,19 @@ class PgImporter final : public RowSink {
     });
   }
 
+  void report(const ReportRow& r) override {
+    store_.require_text(r.who, "change report's sender (who)");
+    const pqxx::binarystring body(r.body.data(), r.body.size());
+    run([&](Work& w) {
+      w.exec_params(
+          "INSERT INTO change_reports (id, map_id, version, vehicle, drive, start_s, end_s, hash, body, size, received, "
+          "who) OVERRIDING SYSTEM VALUE VALUES ($1, $2, $3, $4, $5, $6::float8, $7::float8, $8, $9, $10, "
+          "$11::timestamptz, $12)",
+          r.id, r.map_id, r.version, r.vehicle, r.drive, pg_double(r.start), pg_double(r.end), r.hash, body,
+          static_cast<std::int64_t>(r.body.size()), r.received, r.who);
+    });
+  }
+
   void finish() override {
     run([&](Work& w) {
       for (const VersionRow& v : history_) {
@@ -293,7 +331,7 @@ class PgImporter final : public RowSink {
       for (const auto& [map_id, number] : current_)
         w.exec_params("UPDATE maps SET current_version = $2 WHERE id = $1", map_id, number);
       // Table names are this file's own, never outside values.
-      for (const char* table : {"maps", "versions", "tiles", "places", "signatures", "tokens", "upload_log"})
+      for (const char* table : {"maps", "versions", "tiles", "places", "signatures", "tokens", "upload_log", "change_reports"})
         w.exec(std::string("SELECT setval(pg_get_serial_sequence('") + table + "', 'id'), coalesce(max(id), 0) + 1, false) FROM " +
                table);
     });
@@ -323,7 +361,8 @@ std::unique_ptr<RowSink> PgStore::importer() {
   // that the store is empty and the rows written into it.
   guarded([&] {
     Work w(connection());
-    w.exec("LOCK TABLE maps, versions, blobs, tiles, places, signatures, tokens, upload_log IN EXCLUSIVE MODE");
+    w.exec("LOCK TABLE maps, versions, blobs, tiles, places, signatures, tokens, upload_log, change_reports IN EXCLUSIVE "
+           "MODE");
   });
   return std::make_unique<PgImporter>(*this);
 }

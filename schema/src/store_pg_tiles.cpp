@@ -25,14 +25,16 @@ std::string version_name(const std::string& map, std::int64_t version) {
 }  // namespace
 
 // Every rule the schema states that PostgreSQL does not enforce on its own: tiles point at blobs and
-// versions, places at versions, a current version is the one published version of its map, a
-// parent exists.
+// versions, places and change reports at versions, a current version is the one published version
+// of its map, a parent exists.
 #define PL_PG_INTEGRITY_RULES                                                                                         \
   "SELECT NOT EXISTS (SELECT 1 FROM tiles AS t WHERE NOT EXISTS (SELECT 1 FROM blobs AS b WHERE b.hash = t.hash)) "   \
   "AND NOT EXISTS (SELECT 1 FROM tiles AS t WHERE NOT EXISTS (SELECT 1 FROM versions AS v "                           \
   "  WHERE v.map_id = t.map_id AND v.number = t.version)) "                                                           \
   "AND NOT EXISTS (SELECT 1 FROM places AS p WHERE "                                                                  \
   "  NOT EXISTS (SELECT 1 FROM versions AS v WHERE v.map_id = p.map_id AND v.number = p.version)) "                   \
+  "AND NOT EXISTS (SELECT 1 FROM change_reports AS r WHERE "                                                          \
+  "  NOT EXISTS (SELECT 1 FROM versions AS v WHERE v.map_id = r.map_id AND v.number = r.version)) "                   \
   "AND NOT EXISTS (SELECT 1 FROM maps AS m WHERE m.current_version IS NOT NULL AND NOT EXISTS ("                      \
   "  SELECT 1 FROM versions AS v WHERE v.map_id = m.id AND v.number = m.current_version AND v.state = 'published')) " \
   "AND NOT EXISTS (SELECT 1 FROM versions WHERE state = 'published' GROUP BY map_id HAVING count(*) > 1) "            \
@@ -121,13 +123,14 @@ const PgStatement kPgTileStatements[] = {
     // ---- maintenance
     {"db_size", "SELECT pg_database_size(current_database())"},
     // What the schema promises and PostgreSQL cannot check once a row is written: tiles use
-    // existing blobs of existing versions, every blob and places hash to their hash, the current
-    // version is the one published version of its map, parents exist.
-    // integrity_ok: the rules, and with "integrity" the blobs' and places' bytes against their
-    // hashes and sizes too (one statement: one snapshot).
+    // existing blobs of existing versions, every blob, places and change report hash to their hash,
+    // the current version is the one published version of its map, parents exist.
+    // integrity_ok: the rules, and with "integrity" the bytes of blobs, places and change reports
+    // against their hashes and sizes too (one statement: one snapshot).
     {"integrity", PL_PG_INTEGRITY_RULES
      " AND NOT EXISTS (SELECT 1 FROM blobs WHERE encode(sha256(bytes), 'hex') <> hash OR size <> length(bytes)) "
-     "AND NOT EXISTS (SELECT 1 FROM places WHERE encode(sha256(bytes), 'hex') <> hash OR size <> length(bytes))"},
+     "AND NOT EXISTS (SELECT 1 FROM places WHERE encode(sha256(bytes), 'hex') <> hash OR size <> length(bytes)) "
+     "AND NOT EXISTS (SELECT 1 FROM change_reports WHERE encode(sha256(body), 'hex') <> hash OR size <> length(body))"},
     {"integrity_rules", PL_PG_INTEGRITY_RULES},
 };
 const std::size_t kPgTileStatementCount = std::size(kPgTileStatements);
@@ -387,7 +390,7 @@ std::pair<Store::TokenInfo, std::string> read_token(const PgStore& store, const 
   Store::TokenInfo t;
   t.id = row.integer(0, "id", 1);
   auto role = parse_role(row.text(1, "role"));
-  if (!role) row.bad("role", "is not one of read, upload, admin");
+  if (!role) row.bad("role", "is not one of read, report, upload, admin");
   t.role = *role;
   t.note = row.text(2, "note");
   t.created = row.timestamp(3, "created");

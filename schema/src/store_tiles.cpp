@@ -187,7 +187,7 @@ std::pair<Store::TokenInfo, std::string> read_token(const Stmt& st) {
   Store::TokenInfo t;
   t.id = row.integer(0, "id", 1);
   auto role = parse_role(row.text(1, "role"));
-  if (!role) row.bad("role", "is not one of read, upload, admin");
+  if (!role) row.bad("role", "is not one of read, report, upload, admin");
   t.role = *role;
   t.note = row.text(2, "note");
   t.created = read_timestamp(row, 3, "created");
@@ -291,9 +291,11 @@ bool SqliteStore::integrity_ok(bool hash_bytes) const {
       if (!st.step() || st.int64(0) != 1) return false;
     }
     if (hash_bytes) {
-      // Every blob and every version's places hash to their hash, as on PostgreSQL: SQLite keeps no
-      // checksums of its own, so bytes that changed on disk show only here (or in export_rows).
-      Stmt st(db, "SELECT hash, bytes FROM blobs UNION ALL SELECT hash, bytes FROM places");
+      // Every blob, every version's places and every change report hash to their hash, as on
+      // PostgreSQL: SQLite keeps no checksums of its own, so bytes that changed on disk show only
+      // here (or in export_rows).
+      Stmt st(db, "SELECT hash, bytes FROM blobs UNION ALL SELECT hash, bytes FROM places "
+                  "UNION ALL SELECT hash, body FROM change_reports");
       while (st.step()) {
         Row row(st, "blobs");
         if (content_hash(row.blob(1, "bytes")) != st.text(0)) return false;

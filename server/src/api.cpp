@@ -20,12 +20,14 @@
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
 #include "pl/schema/api_rules.hpp"
+#include "pl/schema/change_report.hpp"
 #include "pl/schema/signed_current.hpp"
 #include "pl/schema/signed_manifest.hpp"
 #include "pl/schema/store.hpp"
 #include "api_parts.hpp"
 #include "rate_limit.hpp"
 #include "version_index.hpp"
+#include "viewer.hpp"
 
 using nlohmann::json;
 
@@ -191,6 +193,7 @@ struct Api::Impl {
   VersionIndexCache version_indexes{8};  // ROI lookups of published and retired versions
   MapRows map_rows;                       // for ROI queries
   RateLimiter upload_limits{cfg.upload_rate, cfg.upload_burst};  // per token, of writes
+  Viewer viewer{cfg};  // the viewer's files, overviews and live vehicles (viewer.cpp)
 
   Impl(ApiConfig c, Metrics& m) : cfg(std::move(c)), metrics(m), blobs(cfg.blob_cache_bytes) {}
 
@@ -243,14 +246,14 @@ struct Api::Impl {
   // Returns who the upload log names for the request: its token's id ("token 7", never the token).
   std::string require_role(const ApiRequest& req, store::Role needed) {
     // Before the token is looked at: a token sent in clear over a network is to be rotated anyway.
-    if (static_cast<int>(needed) >= static_cast<int>(store::Role::Upload) && !req.from_loopback && !cfg.plain_uploads)
+    if (static_cast<int>(needed) >= static_cast<int>(store::Role::Report) && !req.from_loopback && !cfg.plain_uploads)
       fail(403, "uploads over plain HTTP are taken only from this machine: send them over HTTPS through the TLS proxy "
                 "(deploy/nginx), or start pl-server with --plain-uploads when a TLS proxy on another machine forwards them");
     auto token = token_of(req);
     if (!token) fail(401, std::string("this needs a bearer token with the ") + store::role_name(needed) + " role");
     if (static_cast<int>(token->role) < static_cast<int>(needed))
       fail(403, std::string("this needs the ") + store::role_name(needed) + " role; the token has " + store::role_name(token->role));
-    if (static_cast<int>(needed) >= static_cast<int>(store::Role::Upload)) {
+    if (static_cast<int>(needed) >= static_cast<int>(store::Role::Report)) {
       const double wait = upload_limits.take(std::to_string(token->id));
       if (wait > 0) {
         const std::string after = std::to_string(static_cast<long>(std::ceil(wait)));
@@ -723,6 +726,21 @@ struct Api::Impl {
     return json_response(200, {{"version", info.number}, {"state", "published"}}, "/v1/maps/{map}/versions/{v}/publish");
   }
 
+  // Publishes a version an update staged (POST /v1/maps/{map}/update with "publish": true): only
+  // while its parent is still current, and never unsigned where the fleet's key is required.
+  void publish_update(const std::string& name, std::int64_t number, const std::string& by) {
+    if (!cfg.fleet_keys.empty())
+      fail(422, "version " + std::to_string(number) + " is staged; this server publishes signed versions only (pl-server "
+                "--fleet-key): sign and publish it with pl-map push --signing-key, or pl-map publish --signing-key on the store");
+    const auto info = db().find_version(name, number);
+    store::Store::Transaction tx(db());
+    if (!info || !db().publish_if_current(name, number, info->parent))
+      fail(409, "map " + name + " changed while the update was staged: version " + std::to_string(number) + " stays staged");
+    db().log_upload(name, number, "publish", "update", by);
+    tx.commit();
+    map_rows.drop(name);
+  }
+
   // HEAD is GET without the body (the network side drops it); OPTIONS answers 204 with Allow.
   ApiResponse route(const ApiRequest& req, Api& api) {
     Target t = parse_target(req.target);
@@ -756,6 +774,10 @@ struct Api::Impl {
       r.content_type = "text/plain; version=0.0.4";
       return r;
     }
+    if (!s.empty() && s[0] == "viewer") {  // static files: no token, they hold no map data
+      if (only(get, "/viewer/{file}", kReadOnly)) return options(kReadOnly);
+      return viewer.file(req);
+    }
     if (s.empty() || s[0] != "v1") fail(404, "no such resource: " + req.target);
     if (s.size() == 3 && s[1] == "blobs") {
       if (only(get, "/v1/blobs/{hash}", kReadOnly)) return options(kReadOnly);
@@ -782,10 +804,55 @@ struct Api::Impl {
       if (only(get, "/v1/maps/{map}/roi", kReadOnly)) return options(kReadOnly);
       return roi(req, map, t);
     }
+    if (s.size() == 4 && s[3] == "reports") {
+      const char* allow = "GET, HEAD, POST, OPTIONS";
+      if (only(get || m == "POST", "/v1/maps/{map}/reports", allow)) return options(allow);
+      if (get) {
+        require_role(req, store::Role::Upload);
+        return list_reports(db(), t, map);
+      }
+      return post_report(db(), req, map, require_role(req, store::Role::Report));
+    }
+    if (s.size() == 4 && s[3] == "changes") {
+      if (only(get, "/v1/maps/{map}/changes", kReadOnly)) return options(kReadOnly);
+      check_reader(req);
+      return changes(db(), t, map);
+    }
+    if (s.size() == 4 && s[3] == "update") {
+      if (only(m == "POST", "/v1/maps/{map}/update", kPostOnly)) return options(kPostOnly);
+      const std::string by = require_role(req, store::Role::Admin);
+      return update(db(), req, map, by, [&](std::int64_t number) { publish_update(map, number, by); });
+    }
+    if (s.size() == 4 && s[3] == "vehicles") {
+      if (only(get, "/v1/maps/{map}/vehicles", kReadOnly)) return options(kReadOnly);
+      check_reader(req);
+      return viewer.vehicles(need_map(map).name);
+    }
+    if (s.size() == 5 && s[3] == "vehicles") {
+      if (only(m == "POST", "/v1/maps/{map}/vehicles/{id}", kPostOnly)) return options(kPostOnly);
+      require_role(req, store::Role::Report);
+      return viewer.post_vehicle(req, need_map(map).name, s[4]);
+    }
+    if (s.size() == 4 && s[3] == "events") {
+      if (only(get, "/v1/maps/{map}/events", kReadOnly)) return options(kReadOnly);
+      check_reader(req);
+      return viewer.events(need_map(map).name, m == "HEAD");
+    }
     if (s[3] != "versions") fail(404, "no such resource: " + req.target);
     if (s.size() == 4) {
-      if (only(m == "POST", "/v1/maps/{map}/versions", kPostOnly)) return options(kPostOnly);
+      const char* allow = "GET, HEAD, POST, OPTIONS";
+      if (only(get || m == "POST", "/v1/maps/{map}/versions", allow)) return options(allow);
+      if (get) {  // the version list (the viewer's): staged ones for upload tokens only
+        const bool staged = check_reader(req);
+        return Viewer::versions(db(), need_map(map), staged);
+      }
       return create_version(req, map);
+    }
+    if (s.size() == 6 && s[5] == "overview") {
+      if (only(get, "/v1/maps/{map}/versions/{v}/overview", kReadOnly)) return options(kReadOnly);
+      const bool staged = check_reader(req);
+      const auto mi = need_map(map);
+      return viewer.overview(db(), req, mi, need_version(mi, parse_version(s[4]), staged));
     }
     if (s.size() == 6 && s[5] == "publish") {
       if (only(m == "POST", "/v1/maps/{map}/versions/{v}/publish", kPostOnly)) return options(kPostOnly);
@@ -850,7 +917,12 @@ std::size_t Api::body_limit(const std::string& method, const std::string& target
     const auto& s = t.segments;
     if (s.size() == 6 && s[0] == "v1" && s[1] == "maps" && s[3] == "versions" && s[5] == "places") return api::kMaxPlacesBytes;
   }
-  if (method == "POST") return 64u << 10;
+  if (method == "POST") {
+    const Target t = parse_target(target);
+    const auto& s = t.segments;
+    if (s.size() == 4 && s[0] == "v1" && s[1] == "maps" && s[3] == "reports") return schema::ChangeReportLimits{}.max_bytes;
+    return 64u << 10;
+  }
   return 0;
 }
 
@@ -861,6 +933,8 @@ static std::string route_template(const std::string& target) {
   Target t = parse_target(target);
   const auto& s = t.segments;
   if (s.size() == 1 && (s[0] == "healthz" || s[0] == "readyz" || s[0] == "metrics")) return "/" + s[0];
+  if (!s.empty() && s[0] == "viewer") return "/viewer/{file}";
+  if (s.size() == 5 && s[0] == "v1" && s[1] == "maps" && s[3] == "vehicles") return "/v1/maps/{map}/vehicles/{id}";
   if (s.size() < 2 || s[0] != "v1") return "other";
   if (s[1] == "blobs" && s.size() == 3) return "/v1/blobs/{hash}";
   if (s[1] != "maps") return "other";

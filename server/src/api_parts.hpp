@@ -6,12 +6,14 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
 
+#include "pl/common/gzip.hpp"
 #include "pl/common/tile_key.hpp"
 #include "pl/schema/store.hpp"
 #include "pl/server/api.hpp"
@@ -44,8 +46,7 @@ constexpr const char* kPostOnly = "POST, OPTIONS";
 [[noreturn]] void method_not_allowed(const std::string& method, const std::string& route, const char* allow);
 
 // Does an Accept-Encoding header accept gzip (RFC 9110 12.5.3 q-values)?
-bool accepts_gzip(std::string_view header);
-std::string gzip(std::string_view in);
+bool accepts_gzip(std::string_view header);  // (the gzip itself: pl/common/gzip.hpp)
 
 std::string url_decode(std::string_view s);
 struct Target {
@@ -58,5 +59,13 @@ double query_number(const Target& t, const std::string& key, bool required, doub
 std::int64_t parse_version(const std::string& s);     // fail(400) unless a whole number >= 1
 std::int32_t parse_tile_index(const std::string& s);  // fail(400) unless a whole int32
 std::string tile_url(const std::string& map, std::int64_t v, const TileKey& k);
+
+// The fleet's change reports and the updates made from them (api_reports.cpp). `by` is who the
+// store's log names; `publish` publishes a staged version as POST .../publish does.
+ApiResponse post_report(store::Store& db, const ApiRequest& req, const std::string& map, const std::string& by);
+ApiResponse list_reports(store::Store& db, const Target& t, const std::string& map);
+ApiResponse changes(store::Store& db, const Target& t, const std::string& map);
+ApiResponse update(store::Store& db, const ApiRequest& req, const std::string& map, const std::string& by,
+                   const std::function<void(std::int64_t)>& publish);
 
 }  // namespace pl::server::api_parts

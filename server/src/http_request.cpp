@@ -49,6 +49,7 @@ ApiRequest to_api_request(HttpRequest&& req, std::string request_id) {
   ar.authorization = std::string(req[http::field::authorization]);
   ar.if_none_match = std::string(req[http::field::if_none_match]);
   ar.accept_encoding = std::string(req[http::field::accept_encoding]);
+  ar.content_encoding = std::string(req[http::field::content_encoding]);
   ar.request_id = std::move(request_id);
   return ar;
 }

@@ -34,6 +34,7 @@
 #include "pl/common/error.hpp"
 #include "pl/common/text.hpp"
 #include "http_request.hpp"
+#include "viewer.hpp"
 
 namespace beast = boost::beast;
 namespace http = beast::http;
@@ -241,6 +242,7 @@ struct Server::Impl {
     // request finishes it (the response says Connection: close).
     void drain() {
       net::dispatch(stream_.get_executor(), [self = shared_from_this()] {
+        if (self->events_) return self->end_events();  // an event stream has no end of its own
         if (self->idle_ && self->buffer_.size() == 0) self->stream_.cancel();
       });
     }
@@ -285,6 +287,7 @@ struct Server::Impl {
       bool keep = req.keep_alive() && !server_.stopping;
       ApiResponse r = server_.api.handle(ar);  // never throws
       request_id_ = ar.request_id;
+      if (r.events && ar.method == "GET" && r.status == 200) return stream_events(r, req.version(), ar.method, ar.target);
       send(r, req.version(), keep, ar.method, ar.target);
     }
 
@@ -300,26 +303,7 @@ struct Server::Impl {
     void send(ApiResponse& r, unsigned version, bool keep, const std::string& method, const std::string& target) {
       bool head = method == "HEAD";
       std::size_t size = r.blob ? r.blob->size() : r.body.size();
-      double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-      std::size_t bytes = head ? 0 : size;
-      server_.metrics.observe(r.route.empty() ? "other" : r.route, r.status, seconds, bytes);
-      if (server_.cfg.access_log) {
-        std::string line;
-        if (server_.cfg.api.log_json) {
-          nlohmann::json j = {{"time", utc_now_ms()}, {"level", "info"},       {"msg", "request"},
-                              {"request_id", request_id_}, {"remote", remote_}, {"method", printable(method, 32)},
-                              {"target", printable(target)}, {"status", r.status}, {"bytes", bytes},
-                              {"ms", std::round(seconds * 1e6) / 1e3}};
-          line = j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
-        } else {
-          char tail[96];
-          std::snprintf(tail, sizeof(tail), "\" %d %zu %.3fms\n", r.status, bytes, seconds * 1000.0);
-          line = utc_now() + " " + remote_ + " " + request_id_ + " \"" + printable(method, 32) + " " + printable(target) + tail;
-        }
-        std::lock_guard<std::mutex> lock(log_mutex);
-        std::fputs(line.c_str(), stdout);
-        std::fflush(stdout);
-      }
+      log_answer(r, method, target, head ? 0 : size);
       // The header is written here, not built as a Beast response: its field container and the
       // stream it was printed through were a tenth of a tile GET's user-space time.
       write_header(r, version, keep, size);
@@ -369,6 +353,100 @@ struct Server::Impl {
       write_rest(net::buffer(body.data() + (done - header_.size()), total - done));
     }
 
+    // A Server-Sent Events answer (GET /v1/maps/{map}/events, viewer.cpp): the header, then the
+    // records the vehicle hub queues on events_ as they come and a keep-alive comment every
+    // EventStream::kKeepAliveSeconds, until the client leaves, the hub closes the stream (a client
+    // too slow to read) or the server stops (drain). The body ends with the connection (no
+    // Content-Length; Connection: close), which serves nothing else. It is written to the socket
+    // itself, one write at a time, not through stream_, whose timeouts are for request and answer;
+    // a read stays posted to notice the client leaving at once. Everything runs on the strand.
+    void stream_events(ApiResponse& r, unsigned version, const std::string& method, const std::string& target) {
+      log_answer(r, method, target, 0);
+      events_ = std::move(r.events);
+      write_header(r, version, false, 0, false);
+      events_out_ = header_;
+      stream_.expires_never();
+      std::weak_ptr<Session> weak = weak_from_this();
+      events_->set_wake([weak] {
+        if (auto self = weak.lock()) net::post(self->stream_.get_executor(), [self] { self->flush_events(); });
+      });
+      watch_client();
+      keep_alive();
+      flush_events();
+    }
+
+    void flush_events() {
+      if (events_writing_ || events_ended_) return;
+      if (events_out_.empty()) events_out_ = events_->take();
+      if (events_out_.empty()) {
+        if (events_->closed()) end_events();
+        return;
+      }
+      events_writing_ = true;
+      events_write_start_ = std::chrono::steady_clock::now();
+      net::async_write(stream_.socket(), net::buffer(events_out_), [self = shared_from_this()](beast::error_code ec, std::size_t) {
+        self->events_writing_ = false;
+        self->events_out_.clear();
+        if (ec) return self->end_events();
+        self->flush_events();
+      });
+    }
+
+    void keep_alive() {
+      const auto period = std::chrono::seconds(EventStream::kKeepAliveSeconds);
+      events_timer_.expires_after(period);
+      events_timer_.async_wait([self = shared_from_this(), period](beast::error_code ec) {
+        if (ec || self->events_ended_) return;
+        // A write pending for a whole period: the client does not read. It may connect again.
+        if (self->events_writing_ && std::chrono::steady_clock::now() - self->events_write_start_ >= period) return self->end_events();
+        self->events_->push(": keep-alive\n\n");
+        self->keep_alive();
+      });
+    }
+
+    // The client sends nothing more after its request: a read ends when it leaves.
+    void watch_client() {
+      discard_.resize(4096);
+      stream_.socket().async_read_some(net::buffer(discard_), [self = shared_from_this()](beast::error_code ec, std::size_t) {
+        if (ec) return self->end_events();
+        self->watch_client();  // bytes after the request are ignored
+      });
+    }
+
+    // Ends the stream: the pending read, write and timer complete with errors and the session goes.
+    void end_events() {
+      if (events_ended_) return;
+      events_ended_ = true;
+      events_->close();
+      events_timer_.cancel();
+      beast::error_code ec;
+      stream_.socket().shutdown(tcp::socket::shutdown_both, ec);
+      stream_.socket().close(ec);
+    }
+
+    // The answer's metrics and access-log line.
+    void log_answer(const ApiResponse& r, const std::string& method, const std::string& target, std::size_t bytes) {
+      double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+      server_.metrics.observe(r.route.empty() ? "other" : r.route, r.status, seconds, bytes);
+      if (server_.cfg.access_log) {
+        std::string line;
+        if (server_.cfg.api.log_json) {
+          nlohmann::json j = {{"time", utc_now_ms()}, {"level", "info"},       {"msg", "request"},
+                              {"request_id", request_id_}, {"remote", remote_}, {"method", printable(method, 32)},
+                              {"target", printable(target)}, {"status", r.status}, {"bytes", bytes},
+                              {"ms", std::round(seconds * 1e6) / 1e3}};
+          line = j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+        } else {
+          char tail[96];
+          std::snprintf(tail, sizeof(tail), "\" %d %zu %.3fms\n", r.status, bytes, seconds * 1000.0);
+          line = utc_now() + " " + remote_ + " " + request_id_ + " \"" + printable(method, 32) + " " + printable(target) + tail;
+        }
+        std::lock_guard<std::mutex> lock(log_mutex);
+        std::fputs(line.c_str(), stdout);
+        std::fflush(stdout);
+      }
+    }
+
     // Tiles at most this large go out from memory with their header; larger ones with sendfile(2).
     // bench/bench_server.sh's tiles, pl-server against itself in alternating rounds: 3.4 KB tiles
     // inline 1.12-1.19x the requests/s of header + sendfile; 35 KB tiles inline 0.93x (median of
@@ -378,8 +456,8 @@ struct Server::Impl {
     // The response header into header_: status line, Server, Date, X-Request-Id, Content-Type, the
     // handler's fields (a field named twice keeps its last value, as Beast's set() did), Connection
     // where the version needs it, and Content-Length (the body's, also for HEAD; none for a status
-    // that has no body).
-    void write_header(const ApiResponse& r, unsigned version, bool keep, std::size_t length) {
+    // that has no body, nor when `with_length` is false: a body that ends with the connection).
+    void write_header(const ApiResponse& r, unsigned version, bool keep, std::size_t length, bool with_length = true) {
       std::string& h = header_;
       h.clear();
       h += version == 10 ? "HTTP/1.0 " : "HTTP/1.1 ";
@@ -410,7 +488,7 @@ struct Server::Impl {
       if (version == 10 && keep) h += "Connection: keep-alive\r\n";
       if (version != 10 && !keep) h += "Connection: close\r\n";
       const bool bodiless = r.status < 200 || r.status == 204 || r.status == 304;
-      if (!bodiless) {
+      if (!bodiless && with_length) {
         h += "Content-Length: ";
         h += std::to_string(length);
         h += "\r\n";
@@ -518,6 +596,12 @@ struct Server::Impl {
     bool linger_ = false;
     std::vector<char> discard_;
     std::chrono::steady_clock::time_point start_;
+    // An event stream's state (stream_events): set once the connection streams.
+    std::shared_ptr<EventStream> events_;
+    std::string events_out_;  // the bytes being written
+    bool events_writing_ = false, events_ended_ = false;
+    std::chrono::steady_clock::time_point events_write_start_;
+    net::steady_timer events_timer_{stream_.get_executor()};
   };
 
   std::mutex sessions_mutex;

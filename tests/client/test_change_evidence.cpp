@@ -177,6 +177,20 @@ TEST(ChangeEvidence, ANewThingIsAddedAndStaysOpaque) {
   const Counts c = inside(tiles, container, 0.5);
   EXPECT_GE(c.added_cells, 10u);
   EXPECT_LE(c.free * 4, c.added) << "a parked thing is not seen through";
+  // The sample of what was added lies on the container's faces the vehicle saw (y = 4 and x = 4/10,
+  // the roof), and nowhere else: enough points to rebuild it on the map's 0.2 m grid.
+  std::size_t points = 0, on_faces = 0;
+  for (const auto& t : tiles)
+    for (const auto& q : t.points) {
+      ++points;
+      const Eigen::Vector3d p(q[0] / 100.0, q[1] / 100.0, q[2] / 100.0);
+      const bool inside_grown = (p.array() >= container.lo.array() - 0.15).all() && (p.array() <= container.hi.array() + 0.15).all();
+      const double to_face = std::min({std::abs(p.y() - container.lo.y()), std::abs(p.x() - container.lo.x()),
+                                       std::abs(p.x() - container.hi.x()), std::abs(p.z() - container.hi.z())});
+      on_faces += inside_grown && to_face < 0.15;
+    }
+  EXPECT_GE(points, 100u);
+  EXPECT_EQ(on_faces, points);
 }
 
 TEST(ChangeEvidence, AMovingTruckIsSeenThroughOnceItHasGone) {

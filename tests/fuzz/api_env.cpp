@@ -3,7 +3,10 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <tuple>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +17,7 @@
 
 #include "pl/common/error.hpp"
 #include "pl/common/tile_codec.hpp"
+#include "pl/schema/change_report.hpp"
 #include "pl/schema/store.hpp"
 
 namespace fs = std::filesystem;
@@ -48,6 +52,32 @@ std::string inflate_gzip(std::string_view in, bool& ok) {
   return out;
 }
 
+// A drive's change report against version 1: the raised points of tile (0, 0) passed through, a
+// face added at y = 15.1 with its sample (two of them make tile (0, 0) a change candidate).
+std::string town_report(const std::string& vehicle, double start) {
+  schema::ChangeReport r;
+  r.map = "town";
+  r.version = 1;
+  r.vehicle = vehicle;
+  r.drive = "d1";
+  r.start = start;
+  r.end = start + 60;
+  r.voxel_m = 0.5;
+  r.tile_m = 20;
+  schema::TileChangeEvidence t;
+  t.key = {0, 0};
+  t.scans = 30;
+  for (int i = 0; i < 24; i += 3) {
+    const double x = 1 + 18 * ((i % 6) / 6.0), y = 1 + 18 * ((i / 6) / 4.0);
+    t.cells.push_back({static_cast<std::int32_t>(std::floor(x / 0.5)), static_cast<std::int32_t>(std::floor(y / 0.5)), 4, 0, 0, 0, 6});
+  }
+  for (int x = 20; x < 26; ++x) t.cells.push_back({x, 30, 2, 8, 0, 0, 0});
+  std::sort(t.cells.begin(), t.cells.end(), [](const auto& a, const auto& b) { return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z); });
+  for (int x = 1000; x < 1300; x += 20) t.points.push_back({x, 1510, 110});
+  r.tiles = {t};
+  return schema::change_report_json(r);
+}
+
 class Env {
  public:
   Env() {
@@ -70,8 +100,13 @@ class Env {
       }
       store.put_places("town", v1.number, kTownPlaces);
       store.publish("town", v1.number);
+      for (const auto& [vehicle, start] : {std::pair{"vehicle-1", 1.8e9}, {"vehicle-2", 1.8e9 + 86400}}) {
+        const std::string report = town_report(vehicle, start);
+        store.put_report("town", 1, vehicle, "d1", start, start + 60, report, "fuzz");
+      }
       store.create_version("town", std::nullopt, "staged");
       store.add_token(kReadToken, store::Role::Read, "fuzz");
+      store.add_token(kReportToken, store::Role::Report, "fuzz");
       store.add_token(kUploadToken, store::Role::Upload, "fuzz");
       store.add_token(kAdminToken, store::Role::Admin, "fuzz");
     }
@@ -135,7 +170,7 @@ std::string town_tile(int tx, int ty) {
 server::ApiResponse handle_checked(const server::ApiRequest& req) {
   static Env env;
   server::ApiResponse r = env.handle(req);
-  static const int known[] = {200, 201, 204, 304, 400, 401, 403, 404, 405, 409, 413, 422, 503};
+  static const int known[] = {200, 201, 204, 301, 304, 400, 401, 403, 404, 405, 409, 413, 415, 422, 503};  // 301: /viewer to /viewer/
   bool documented = false;
   for (int k : known) documented |= r.status == k;
   if (!documented) finding("status " + std::to_string(r.status) + " (500: an exception nobody expected)", req, r);

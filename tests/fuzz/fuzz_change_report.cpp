@@ -22,6 +22,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const pl::schema::ChangeReport again = pl::schema::parse_change_report(pl::schema::change_report_json(r));
   if (again.map != r.map || again.version != r.version || again.drive != r.drive || again.tiles.size() != r.tiles.size()) std::abort();
   for (std::size_t i = 0; i < r.tiles.size(); ++i)
-    if (!(again.tiles[i].key == r.tiles[i].key) || again.tiles[i].cells != r.tiles[i].cells) std::abort();
+    if (!(again.tiles[i].key == r.tiles[i].key) || again.tiles[i].cells != r.tiles[i].cells || again.tiles[i].points != r.tiles[i].points)
+      std::abort();
   return 0;
 }

@@ -7,7 +7,8 @@
 //   answers intersect the box);
 // - refusing to open leaves the file as it was (at most the header fields of the switch to WAL);
 // - reading a current WAL store (what pl-map writes) changes no byte of it;
-// - a tile that put_tile stored is found again, with its bytes, and so are places put_places stored.
+// - a tile that put_tile stored is found again, with its bytes, and so are places put_places
+//   stored and a change report put_report stored (once).
 #include <sqlite3.h>
 #include <unistd.h>
 
@@ -179,6 +180,18 @@ void serve(const Store& s) {
       for (const auto& e : s.upload_log(m.name))
         if (e.map != m.name) suspect("upload_log(map) returned an entry of another map");
     });
+    // Change reports: each one's body hashes to its hash, and has the size listed.
+    attempt([&] {
+      std::size_t n = 0;
+      for (const auto& r : s.list_reports(m.name)) {
+        if (r.map != m.name) finding("list_reports(map) returned a report of another map");
+        if (!pl::api::is_hash(r.hash)) finding("list_reports returned a hash that is not 64 lowercase hex digits");
+        if (++n > 3) continue;
+        const auto body = s.report_body(m.name, r.id);
+        if (body && (pl::store::content_hash(*body) != r.hash || static_cast<std::int64_t>(body->size()) != r.bytes))
+          finding("report_body returned bytes that do not hash to the report's hash or size");
+      }
+    });
   }
   attempt([&] { s.find_map("town"); });
   attempt([&] { s.list_versions("town"); });
@@ -221,6 +234,12 @@ void build(Store& s) {
       s.put_places(map, v.number, places);
       if (s.places(map, v.number) != places) suspect("put_places's bytes are not found again");
       s.publish(map, v.number);
+      const std::string report = "{\"report of\": \"" + map + "\"}";
+      if (s.put_report(map, v.number, "fuzz-vehicle", "fuzz-drive", 0, 1, report, "fuzz") != Store::ReportPut::Stored ||
+          s.put_report(map, v.number, "fuzz-vehicle", "fuzz-drive", 0, 1, report, "fuzz") != Store::ReportPut::AlreadyStored)
+        suspect("put_report does not store a report once");
+      const auto reports = s.list_reports(map, v.number);
+      if (reports.empty() || s.report_body(map, reports.back().id) != report) suspect("put_report's bytes are not found again");
       const VersionInfo child = s.create_version(map, v.number, "fuzz child");
       if (s.places(map, child.number) != places) suspect("a new version does not start with its parent's places");
       s.delete_places(map, child.number);

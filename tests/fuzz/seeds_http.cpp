@@ -52,6 +52,18 @@ std::vector<Req> requests() {
       {"patch-healthz", "PATCH", "/healthz", "", "", "", ""},
       {"bad-token", "GET", "/v1/maps", "Bearer nope", "", "", ""},
       {"encoded-name", "GET", "/v1/maps/to%77n?x=1", "", "", "", ""},
+      // The map viewer's routes (server/src/viewer.cpp).
+      {"versions-list", "GET", "/v1/maps/town/versions", "", "", "gzip", ""},
+      {"versions-staged", "GET", "/v1/maps/town/versions", "@upload", "", "", ""},
+      {"overview", "GET", "/v1/maps/town/versions/1/overview", "", "", "", ""},
+      {"overview-staged", "GET", "/v1/maps/town/versions/2/overview", "@upload", "", "", ""},
+      {"vehicle-post", "POST", "/v1/maps/town/vehicles/car-1", "@upload", "", "",
+       R"({"x": 12.5, "y": -3.25, "z": 0.5, "yaw": 1.5, "health": "degraded", "t": 1800000000.25})"},
+      {"vehicles", "GET", "/v1/maps/town/vehicles", "@read", "", "", ""},
+      {"events", "GET", "/v1/maps/town/events", "", "", "", ""},
+      {"viewer-index", "GET", "/viewer/", "", "", "", ""},
+      {"viewer-redirect", "GET", "/viewer?map=town", "", "", "", ""},
+      {"viewer-traversal", "GET", "/viewer/js/%2e%2e/..%2f..%2findex.html", "", "", "", ""},
   };
 }
 

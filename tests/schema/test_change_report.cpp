@@ -27,6 +27,8 @@ ChangeReport sample() {
   a.key = {-1, 2};
   a.scans = 40;
   a.cells = {{-10, 81, 1, 5, 0, 0, 0}, {-10, 81, 2, 4, 1, 0, 0}, {-3, 90, -1, 0, 0, 2, 7}};
+  // Samples of the added structure, in centimetres: in voxels (-10, 81, 1) and (-10, 81, 2).
+  a.points = {{-480, 4060, 70}, {-460, 4090, 120}};
   pl::schema::TileChangeEvidence b;
   b.key = {0, 0};
   b.scans = 12;
@@ -68,6 +70,30 @@ TEST(ChangeReport, ReadsBackWhatWasWritten) {
   EXPECT_EQ(back.tiles[0].scans, 40u);
   EXPECT_EQ(back.tiles[0].cells, r.tiles[0].cells);
   EXPECT_TRUE(back.tiles[1].cells.empty());
+  EXPECT_EQ(back.tiles[0].points, r.tiles[0].points);
+  EXPECT_TRUE(back.tiles[1].points.empty());
+}
+
+TEST(ChangeReport, SamplePointsLieInTheVoxelsReportedAdded) {
+  const std::string good = pl::schema::change_report_json(sample());
+  ASSERT_NE(good.find("\"points\":[-480,4060,70,-460,4090,120]"), std::string::npos) << good;
+  // In voxel (-3, 90, -1), reported passed through, not added; outside every reported voxel; out of order; not triples.
+  EXPECT_NE(error_of(edited(good, "-460,4090,120]", "-140,4510,-20]")).find("added > 0"), std::string::npos);
+  EXPECT_NE(error_of(edited(good, "-460,4090,120]", "-460,4090,900]")).find("added > 0"), std::string::npos);
+  EXPECT_NE(error_of(edited(good, "[-480,4060,70,-460", "[-460,4060,70,-480")).find("order"), std::string::npos);
+  EXPECT_NE(error_of(edited(good, "-460,4090,120]", "-460,4090]")).find("3 integers"), std::string::npos);
+  EXPECT_NE(error_of(edited(good, "-460,4090,120]", "-460,4090,1.5]")).find("integers"), std::string::npos);
+  pl::schema::ChangeReportLimits small;
+  small.max_points = 1;
+  EXPECT_NE([&] {
+    try {
+      parse_change_report(good, small);
+    } catch (const pl::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  }().find("sample points"), std::string::npos);
+  EXPECT_EQ(pl::schema::voxel_of_cm({-1, 49, 50}, 0.5), (std::array<std::int32_t, 3>{-1, 0, 1}));
 }
 
 TEST(ChangeReport, RefusesWhatIsWrongAndSaysWhat) {

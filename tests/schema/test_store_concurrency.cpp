@@ -7,10 +7,12 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <exception>
 #include <set>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -218,6 +220,83 @@ TEST_P(StoreConcurrencyTest, ConditionalPublishesOfOneMapHaveExactlyOneWinnerARo
   s.publish("m", loser->number);
   EXPECT_EQ(s.find_map("m")->current, loser->number);
   EXPECT_TRUE(s.integrity_ok());
+}
+
+// Vehicles that send one drive's report twice at once (a retry racing the first send, two server
+// replicas): it is stored once. Same bytes: one Stored, the others AlreadyStored; other bytes: one
+// Stored, the others Conflict, and the one stored is the winner's.
+TEST_P(StoreConcurrencyTest, ConcurrentPutsOfOneDriveStoreItOnce) {
+  {
+    Store s = Store::open(path);
+    s.create_map("m", kOrigin, 10, 0.2);
+    s.create_version("m", std::nullopt, "");
+    s.publish("m", 1);
+  }
+  constexpr int kThreads = 4, kRounds = 8;
+  using Put = Store::ReportPut;
+  std::vector<Store> conns;
+  for (int t = 0; t < kThreads; ++t) conns.push_back(Store::open(path));
+  for (int round = 0; round < kRounds; ++round) {
+    const bool same = round % 2 == 0;
+    const std::string drive = "drive-" + std::to_string(round);
+    auto body = [&](int t) { return "{\"round\":" + std::to_string(round) + ",\"from\":" + std::to_string(same ? 0 : t) + "}"; };
+    std::vector<Put> got(kThreads);
+    std::vector<std::string> errors(kThreads);
+    std::atomic<int> ready{0};
+    std::vector<std::thread> threads;
+    for (int t = 0; t < kThreads; ++t)
+      threads.emplace_back([&, t] {
+        const auto i = static_cast<std::size_t>(t);
+        ready.fetch_add(1);
+        while (ready.load() < kThreads) std::this_thread::yield();  // all at once
+        try {
+          got[i] = conns[i].put_report("m", 1, "car", drive, 0, 1, body(t), "token " + std::to_string(t));
+        } catch (const std::exception& e) {
+          errors[i] = e.what();
+        }
+      });
+    for (auto& th : threads) th.join();
+    for (const auto& e : errors) ASSERT_EQ(e, "");
+    ASSERT_EQ(std::count(got.begin(), got.end(), Put::Stored), 1) << "round " << round;
+    EXPECT_EQ(std::count(got.begin(), got.end(), same ? Put::AlreadyStored : Put::Conflict), kThreads - 1) << "round " << round;
+    const int winner = static_cast<int>(std::find(got.begin(), got.end(), Put::Stored) - got.begin());
+    const auto reports = conns[0].list_reports("m");
+    ASSERT_EQ(reports.size(), static_cast<std::size_t>(round + 1));
+    EXPECT_EQ(reports.back().drive, drive);
+    EXPECT_EQ(reports.back().who, "token " + std::to_string(winner));
+    EXPECT_EQ(conns[0].report_body("m", reports.back().id), body(winner));
+  }
+
+  // A put that waits for another's uncommitted put of the drive (PostgreSQL: on the unique key;
+  // SQLite: for the write lock) finds it once it commits and is told so; when it is rolled back
+  // instead, the waiting put stores its own.
+  for (const bool commit : {true, false}) {
+    const std::string drive = commit ? "held" : "undone";
+    std::optional<Put> second;
+    std::string error;
+    std::atomic<bool> done{false};
+    std::thread other;
+    {
+      Store::Transaction tx(conns[0]);
+      ASSERT_EQ(conns[0].put_report("m", 1, "car", drive, 0, 1, "first", "token 0"), Put::Stored);
+      other = std::thread([&] {
+        try {
+          second = conns[1].put_report("m", 1, "car", drive, 0, 1, "second", "token 1");
+        } catch (const std::exception& e) {
+          error = e.what();
+        }
+        done = true;
+      });
+      std::this_thread::sleep_for(std::chrono::milliseconds(300));
+      EXPECT_FALSE(done.load());  // still waiting
+      if (commit) tx.commit();
+    }
+    other.join();
+    EXPECT_EQ(error, "");
+    EXPECT_EQ(second, commit ? Put::Conflict : Put::Stored);
+    EXPECT_EQ(conns[2].report_body("m", conns[2].list_reports("m").back().id), commit ? "first" : "second") << drive;
+  }
+  EXPECT_EQ(count("change_reports"), kRounds + 2);
 }
 
 TEST_P(StoreConcurrencyTest, WritersOfOneMapTakeTurnsWithBlobsSharedAcrossMaps) {

@@ -1,7 +1,7 @@
 // The exact copy of a whole store between engines (pl/schema/store_copy.hpp, pl-map migrate): a
 // SQLite store with every kind of row is copied to PostgreSQL and back to SQLite, and the three are
 // compared row by row (ids, timestamps and history included), by their digests and by what they do
-// (rollbacks, tokens, blob bytes). A destination that is not empty is refused untouched, and a copy
+// (rollbacks, tokens, blob bytes, change reports). A destination that is not empty is refused untouched, and a copy
 // that fails half-way (a damaged source, a value the destination cannot hold) leaves it empty.
 #include <gtest/gtest.h>
 #include <sqlite3.h>
@@ -42,7 +42,7 @@ std::string dump_sqlite(const std::string& path) {
   }
   std::string out;
   for (const char* table : {"maps", "versions", "blobs", "tiles", "tile_rtree", "places", "signatures", "tokens",
-                            "upload_log", "sqlite_sequence"}) {
+                            "upload_log", "change_reports", "sqlite_sequence"}) {
     out += std::string("== ") + table + "\n";
     sqlite3_stmt* st = nullptr;
     const std::string sql = std::string("SELECT * FROM ") + table + " ORDER BY 1";
@@ -83,7 +83,8 @@ std::string dump_sqlite(const std::string& path) {
 }
 
 // What a store answers through its public calls, for every map, version, tile, blob, places,
-// signature, token and log entry: two stores with the same answers look the same to every user.
+// signature, token, log entry and change report: two stores with the same answers look the same to
+// every user.
 std::string answers(const Store& s, const std::vector<std::string>& log_names) {
   std::string out;
   for (const auto& m : s.list_maps()) {
@@ -106,6 +107,14 @@ std::string answers(const Store& s, const std::vector<std::string>& log_names) {
       const auto sig = s.signature(m.name, v.number);
       out += "  signature " + (sig ? pl::store::content_hash(sig->public_key + sig->signature) + " " + sig->signed_at : "-") + "\n";
     }
+    for (const auto& r : s.list_reports(m.name)) {
+      char span[80];
+      std::snprintf(span, sizeof(span), "%.17g %.17g", r.start, r.end);
+      const auto body = s.report_body(m.name, r.id);
+      out += " report " + std::to_string(r.id) + " " + r.map + " v" + std::to_string(r.version) + " " + r.vehicle + " " +
+             r.drive + " " + span + " " + r.hash + " " + std::to_string(r.bytes) + " " + r.received + " [" + r.who + "] " +
+             (body ? pl::store::content_hash(*body) : std::string("missing")) + "\n";
+    }
   }
   for (const auto& t : s.list_tokens())
     out += "token " + std::to_string(t.id) + " " + pl::store::role_name(t.role) + " [" + t.note + "] " + t.created + " " +
@@ -127,13 +136,14 @@ void publish_signed(Store& s, const std::string& map, std::int64_t version, cons
 }
 
 struct Filled {
-  std::vector<std::string> tokens;  // [0] read, [1] upload (revoked), [2] admin
+  std::vector<std::string> tokens;  // [0] read, [1] upload (revoked), [2] admin, [3] report
   std::vector<std::string> log_names = {"campus", "harbour", "empty", "nowhere"};
 };
 
 // A store with every kind of row: three maps (one without versions), versions in all three states,
 // a publish history with a rollback in it, shared blobs, places, real signatures, tokens (one
-// revoked) and upload log entries (one for a map that does not exist, some without a version).
+// revoked) and upload log entries (one for a map that does not exist, some without a version), and
+// change reports (against published, retired and staged versions, binary bytes, of two vehicles).
 Filled fill(const std::string& path) {
   Filled f;
   Store s = Store::open(path);
@@ -170,8 +180,8 @@ Filled fill(const std::string& path) {
   s.create_version("harbour", std::nullopt, "staged");
   s.put_places("harbour", 2, std::string("\0binary\xff places", 15));
   put_cell(s, "harbour", 2, 11, -10, 8);
-  // Tokens: read, upload (revoked), admin.
-  for (Role role : {Role::Read, Role::Upload, Role::Admin}) {
+  // Tokens: read, upload (revoked), admin, report.
+  for (Role role : {Role::Read, Role::Upload, Role::Admin, Role::Report}) {
     f.tokens.push_back(pl::store::random_token());
     s.add_token(f.tokens.back(), role, std::string("for ") + pl::store::role_name(role));
   }
@@ -182,6 +192,14 @@ Filled fill(const std::string& path) {
   s.log_upload("nowhere", 7, "publish", "unknown map", "");
   s.log_upload("harbour", 1, "publish", "tabs\tand\nnewlines", "token 3");
   s.log_upload("campus", 4, "rollback", "", "admin");
+  // Change reports: campus v1 (retired), v6 (current) and v5 (staged); harbour v1.
+  using Put = Store::ReportPut;
+  EXPECT_EQ(s.put_report("campus", 1, "car-7", "drive-1", 1714550000.125, 1714553600.75, R"({"drive":"drive-1"})", "token 4"),
+            Put::Stored);
+  EXPECT_EQ(s.put_report("campus", 6, "car-7", "drive-2", -0.0, 1e-300, std::string("\0binary\xff report", 15), "token 4"),
+            Put::Stored);
+  EXPECT_EQ(s.put_report("campus", 5, "car-8", "drive-1", 1, 1, std::string(70000, 'r'), "token 4"), Put::Stored);
+  EXPECT_EQ(s.put_report("harbour", 1, "car-8", "drive-3", 2, 3, "{}", "tabs\tand \xc3\xa9"), Put::Stored);
   EXPECT_TRUE(s.integrity_ok());
   return f;
 }
@@ -210,7 +228,7 @@ std::string rollbacks(const std::string& path) {
 // The counts of the tables that must stay empty after a refused or failed copy.
 std::int64_t rows_in(Backend b, const std::string& path) {
   std::int64_t n = 0;
-  for (const char* t : {"maps", "versions", "blobs", "tiles", "places", "signatures", "tokens", "upload_log"})
+  for (const char* t : {"maps", "versions", "blobs", "tiles", "places", "signatures", "tokens", "upload_log", "change_reports"})
     n += pl::test::raw_scalar(b, path, std::string("SELECT count(*) FROM ") + t);
   return n;
 }
@@ -239,8 +257,9 @@ TEST(StoreCopy, SqliteToPostgresAndBackIsExact) {
   });
   EXPECT_EQ(report.maps, 3);
   EXPECT_EQ(report.versions, 8);
-  EXPECT_EQ(report.tokens, 3);
+  EXPECT_EQ(report.tokens, 4);
   EXPECT_EQ(report.log_entries, 5);
+  EXPECT_EQ(report.reports, 4);
   EXPECT_EQ(report.signatures, 3);
   EXPECT_EQ(report.places, 7);  // campus 1 to 6 (2, 4, 5 and 6 inherited theirs), harbour 2
   EXPECT_EQ(report.places, pl::test::raw_scalar(Backend::Sqlite, src, "SELECT count(*) FROM places"));
@@ -249,7 +268,7 @@ TEST(StoreCopy, SqliteToPostgresAndBackIsExact) {
   EXPECT_EQ(report.blob_bytes, pl::test::raw_scalar(Backend::Sqlite, src, "SELECT sum(size) FROM blobs"));
   EXPECT_EQ(report.digest, digest);
   EXPECT_EQ(stages, (std::vector<std::string>{"maps", "versions", "blobs", "tiles", "places", "signatures", "tokens",
-                                              "upload log", "verifying"}));
+                                              "upload log", "change reports", "verifying"}));
   EXPECT_EQ(pl::store::store_digest(pg), digest);
   EXPECT_TRUE(Store::open(pg, false).integrity_ok());
 
@@ -266,6 +285,7 @@ TEST(StoreCopy, SqliteToPostgresAndBackIsExact) {
   EXPECT_NE(want.find("retired"), std::string::npos);
   EXPECT_NE(want.find("staged"), std::string::npos);
   EXPECT_NE(want.find("published"), std::string::npos);
+  EXPECT_NE(want.find(" report "), std::string::npos);
   EXPECT_EQ(answers_of(pg, f), want);
   EXPECT_EQ(answers_of(back, f), want);
   // The history columns on PostgreSQL, against the source's.
@@ -280,7 +300,23 @@ TEST(StoreCopy, SqliteToPostgresAndBackIsExact) {
     EXPECT_EQ(s.check_token(f.tokens[0]), Role::Read) << pl::store::display_name(path);
     EXPECT_EQ(s.check_token(f.tokens[1]), std::nullopt) << pl::store::display_name(path);
     EXPECT_EQ(s.check_token(f.tokens[2]), Role::Admin) << pl::store::display_name(path);
+    EXPECT_EQ(s.check_token(f.tokens[3]), Role::Report) << pl::store::display_name(path);
     EXPECT_EQ(s.check_token("not a token"), std::nullopt);
+  }
+  // Change reports: every body the same in the three, byte for byte.
+  {
+    const Store a = Store::open(src, false), b = Store::open(pg, false), c = Store::open(back, false);
+    int reports = 0;
+    for (const auto& m : a.list_maps())
+      for (const auto& r : a.list_reports(m.name)) {
+        const auto body = a.report_body(m.name, r.id);
+        ASSERT_TRUE(body);
+        EXPECT_EQ(b.report_body(m.name, r.id), body);
+        EXPECT_EQ(c.report_body(m.name, r.id), body);
+        ++reports;
+      }
+    EXPECT_EQ(reports, 4);
+    EXPECT_EQ(b.report_body("campus", 2), std::string("\0binary\xff report", 15));
   }
   // Blob bytes: every tile's bytes the same in the three.
   {
@@ -324,9 +360,12 @@ TEST(StoreCopy, SqliteToPostgresAndBackIsExact) {
     EXPECT_EQ(s.create_map("new", kOrigin, 20, 0.2).id, 4) << pl::store::display_name(path);
     EXPECT_EQ(s.create_version("harbour", std::nullopt, "").number, 3);
     put_cell(s, "harbour", 3, 40, 40, 99);
-    EXPECT_EQ(s.add_token(pl::store::random_token(), Role::Read, ""), 4);
+    EXPECT_EQ(s.add_token(pl::store::random_token(), Role::Read, ""), 5);
     s.log_upload("new", std::nullopt, "create", "", "");
     EXPECT_EQ(s.upload_log("new").at(0).id, 6);
+    EXPECT_EQ(s.put_report("harbour", 3, "car-9", "drive-9", 0, 1, "{}", "token 5"), Store::ReportPut::Stored);
+    EXPECT_EQ(s.list_reports("harbour", 3).at(0).id, 5);
+    EXPECT_EQ(s.put_report("campus", 1, "car-7", "drive-1", 0, 1, "other bytes", "token 5"), Store::ReportPut::Conflict);
     EXPECT_TRUE(s.integrity_ok());
   }
 }
@@ -394,12 +433,15 @@ TEST_P(StoreCopyBoth, ASourceDamagedHalfWayLeavesTheDestinationEmpty) {
   }
 }
 
-// checked_digest (pl-map check): a sound store's is its store_digest; a store with a blob or places
-// whose bytes changed (same size: only the hash tells), which integrity_ok() finds, has none.
+// checked_digest (pl-map check): a sound store's is its store_digest; a store with a blob, places or
+// change report whose bytes changed (same size: only the hash tells), which integrity_ok() finds,
+// has none.
 TEST_P(StoreCopyBoth, CheckedDigestIsThatOfASoundStoreOnly) {
   fill(dir / "src.db");
-  const std::string blob_changed = another("blob.db"), places_changed = another("places.db");
-  for (const std::string& to : {path, blob_changed, places_changed}) pl::store::copy_store(dir / "src.db", to);
+  const std::string blob_changed = another("blob.db"), places_changed = another("places.db"),
+                    report_changed = another("report.db");
+  for (const std::string& to : {path, blob_changed, places_changed, report_changed})
+    pl::store::copy_store(dir / "src.db", to);
   EXPECT_EQ(pl::store::checked_digest(path), pl::store::store_digest(path));
   const std::string zeros = sqlite() ? "zeroblob(size)" : "decode(repeat('00', size::int), 'hex')";
   ASSERT_EQ(pl::test::raw_exec(GetParam(), blob_changed,
@@ -410,10 +452,44 @@ TEST_P(StoreCopyBoth, CheckedDigestIsThatOfASoundStoreOnly) {
                                "UPDATE places SET bytes = " + zeros +
                                    " WHERE version = 2 AND map_id = (SELECT id FROM maps WHERE name = 'harbour')"),
             "");
-  for (const std::string& damaged : {blob_changed, places_changed}) {
+  ASSERT_EQ(pl::test::zero_report_bodies(GetParam(), report_changed), "");
+  for (const std::string& damaged : {blob_changed, places_changed, report_changed}) {
     EXPECT_FALSE(Store::open(damaged, false).integrity_ok()) << damaged;
     EXPECT_EQ(pl::store::checked_digest(damaged), std::nullopt) << damaged;
   }
+}
+
+// Change reports are content: adding one changes the digest, deleting it again (retention) brings
+// the digest back; a store without any has the digest it would have had before schema version 5
+// (the empty table adds nothing to it). A report damaged in the source stops the copy.
+TEST_P(StoreCopyBoth, ChangeReportsAreInTheDigest) {
+  Store s = Store::open(path);
+  s.create_map("m", kOrigin, 20.0, 0.2);
+  s.create_version("m", std::nullopt, "");
+  put_cell(s, "m", 1, 0, 0, 1);
+  s.publish("m", 1);
+  const std::string without = pl::store::store_digest(path);
+  EXPECT_EQ(pl::store::checked_digest(path), without);
+  ASSERT_EQ(s.put_report("m", 1, "car", "d-1", 0, 1, "{}", "token 1"), Store::ReportPut::Stored);
+  const std::string with = pl::store::store_digest(path);
+  EXPECT_NE(with, without);
+  EXPECT_EQ(pl::store::checked_digest(path), with);
+  // Another report of the same size and hash but another drive: another digest again.
+  ASSERT_EQ(s.put_report("m", 1, "car", "d-2", 0, 1, "{}", "token 1"), Store::ReportPut::Stored);
+  EXPECT_NE(pl::store::store_digest(path), with);
+  EXPECT_EQ(s.delete_reports("m", "9999-12-31T23:59:59.999Z"), 2);
+  EXPECT_EQ(pl::store::store_digest(path), without);
+
+  // A copy moves reports both ways, and reports one damaged in the source as damage.
+  ASSERT_EQ(s.put_report("m", 1, "car", "d-3", 5, 6, std::string(3000, 'j'), "token 1"), Store::ReportPut::Stored);
+  const std::string copy = another("copy.db");
+  EXPECT_EQ(pl::store::copy_store(path, copy).reports, 1);
+  EXPECT_EQ(pl::store::store_digest(copy), pl::store::store_digest(path));
+  EXPECT_EQ(Store::open(copy, false).list_reports("m").at(0).drive, "d-3");
+  ASSERT_EQ(pl::test::zero_report_bodies(GetParam(), path), "");
+  const std::string err = pl::test::error_of([&] { pl::store::copy_store(path, another("again.db")); });
+  EXPECT_NE(err.find("the map store is damaged (change_reports.body of change report"), std::string::npos) << err;
+  EXPECT_EQ(pl::store::checked_digest(path), std::nullopt);
 }
 
 PL_BOTH_BACKENDS(StoreCopyBoth);

@@ -43,6 +43,8 @@ struct ChangeEvidenceConfig {
                                  // drove there, so it was free (a truck in the lane that keeps its
                                  // distance is never seen through)
   std::size_t max_cells_per_tile = 4096;  // a report's bound: the voxels with most evidence are kept
+  double sample_m = 0.2;                  // the added structure is sampled on this grid (the map's voxel)
+  std::size_t max_points_per_tile = 20000;  // a report's bound on a tile's sample (the points most scans saw kept)
   // Throws pl::Error naming the field and its allowed range.
   void validate() const;
 };
@@ -61,7 +63,9 @@ class ChangeEvidence {
 
   // The evidence so far, per tile in key order: the voxels two or more scans found added or passed
   // through, each tile's bounded by max_cells_per_tile (every tile seen is listed, with no voxels
-  // when nothing changed there: a pass that saw no change counts too).
+  // when nothing changed there: a pass that saw no change counts too), and the sample of the added
+  // structure in them: per sample_m voxel that two or more scans found added, the mean of its
+  // returns (centimetres), bounded by max_points_per_tile.
   std::vector<schema::TileChangeEvidence> tiles() const;
   std::size_t scans_used() const { return used_; }
   const std::vector<double>& milliseconds() const { return ms_; }  // each used scan's time (steady clock)

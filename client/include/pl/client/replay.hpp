@@ -42,6 +42,11 @@ struct ReplayResult {
   Trajectory per_scan;  // the fused pose of every scan
   std::size_t ok = 0, degraded = 0, lost = 0, outdated = 0, lidar_fused = 0;
   std::vector<double> registration_ms, total_ms;
+  // The outdated-map share: of the fused scans, the mean share of scan points ICP found no map pair
+  // for (1 - inlier share): what the map lacks, and the traffic.
+  double unpaired_sum = 0;
+  std::size_t unpaired_scans = 0;
+  double unpaired_share() const { return unpaired_scans ? unpaired_sum / static_cast<double>(unpaired_scans) : 0.0; }
 };
 
 // The drive, scan by scan, after options.start. Throws pl::Error when the start failed (naming why).

@@ -83,6 +83,11 @@ struct TileClientConfig {
   // current-version statement names, or on the newest this vehicle has verified (above). Empty: the
   // map answer's current version is taken as it comes (above the newest verified).
   std::string timestamp_keys;
+  // Seconds between asking the server which version of the map is current, while the client runs
+  // (status().latest; with timestamp_keys only a fresh signed statement counts); 0: never (the
+  // version is the drive's). The client stays on its version: moving is the caller's (the vehicle
+  // localizer moves at a safe moment, with a second client that loads the new version first).
+  double follow_s = 0;
 };
 
 struct TileClientStatus {
@@ -104,6 +109,8 @@ struct TileClientStatus {
                                   // this vehicle has verified (this run or kept in its disk cache)
   long long confirmed_version = 0;  // with timestamp_keys: the version the last fresh current-version statement
   long long confirmed_until = 0;    // named, and when it expires (Unix seconds); 0: none verified this run
+  long long latest = 0;       // with follow_s: the current version the server named last (0: not asked yet)
+  std::size_t seeded = 0;     // tiles taken from seed() instead of loaded
   std::size_t evicted = 0;    // tiles dropped from memory to stay within memory_mb
   std::string last_error;     // the last problem, naming what to do; empty when fine (cleared by
                               // the next successful request, except a refusal: that stands until a
@@ -139,6 +146,12 @@ class TileClient {
   // Switches to another version of the map: memory is emptied and filled again for the focus
   // (from the disk cache where the versions share tiles).
   void pin_version(long long version);
+
+  // Decoded tiles of another version of this map (another client's, tiles_near): where this
+  // client's version holds a tile with the same hash, the tile is taken from here instead of the
+  // disk or the server (a map update changes a few tiles; the others are the same bytes). Kept until
+  // this client's version changes; the clouds are shared, not copied.
+  void seed(const std::vector<MapTile>& tiles);
 
   // The places of the version in use (status().version): opaque bytes (the place-recognition
   // descriptors built with the map). Blocks for at most about timeout_s: until a version is known,

@@ -135,7 +135,10 @@ class VehicleLocalizer {
   // The geodetic origin of the map's ENU frame: GPS fixes (latitude, longitude) go into the map frame
   // with EnuFrame(map_origin()).to_enu().
   GeoPoint map_origin() const;
+  // The map version in use: with tiles.follow_s, a newer published version moves in mid-drive at a
+  // safe moment (an ok scan, its tiles round the vehicle loaded), without a jump in the pose.
   long long map_version() const;
+  std::size_t version_moves() const;     // how many times it moved
   TileClientStatus tile_status() const;  // default-constructed with a local store
 
  private:

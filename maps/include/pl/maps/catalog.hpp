@@ -35,7 +35,7 @@ std::int64_t rollback_version(store::Store& s, const std::string& map, const sig
 
 struct VersionDiff {
   std::size_t added = 0, removed = 0, changed = 0, unchanged = 0;
-  std::string text;  // "+ TX TY", "- TX TY", "~ TX TY" lines, then the counts
+  std::string text;  // "+ TX TY", "- TX TY", "~ TX TY" lines (with the reason an update logged), then the counts
 };
 VersionDiff diff_versions(const store::Store& s, const std::string& map, std::int64_t from, std::int64_t to);
 

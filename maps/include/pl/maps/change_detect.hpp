@@ -16,6 +16,7 @@
 // other count as one pass (the later one), and only reports against the version asked for count.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -51,6 +52,9 @@ struct TileChange {
   std::size_t agreed = 0;                   // agreed changed voxels (the most any one pass holds)
   bool candidate = false;
   std::vector<schema::ChangeCell> added, removed;  // the agreed voxels, in (x, y, z) order; counts summed over the passes
+  // The added structure: the judged passes' sample points (centimetres, map frame) in their agreed
+  // added voxels, sorted, each once.
+  std::vector<std::array<std::int32_t, 3>> points;
 };
 
 struct ChangeSummary {

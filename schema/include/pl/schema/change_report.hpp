@@ -4,10 +4,15 @@
 //
 // JSON, compact: {"format": "pl-change-report", "format_version": 1, "map": NAME, "version": N,
 //   "vehicle": ID, "drive": ID, "start": UNIX_S, "end": UNIX_S, "voxel_m": V, "tile_m": S,
-//   "tiles": [{"tx": I, "ty": I, "scans": N, "cells": [x, y, z, added, free, seen, passed, ...]}]}
-// A cell's x, y, z index the voxel_m grid of the map frame (floor(coordinate / voxel_m)).
+//   "tiles": [{"tx": I, "ty": I, "scans": N, "cells": [x, y, z, added, free, seen, passed, ...],
+//              "points": [x, y, z, ...]}]}
+// A cell's x, y, z index the voxel_m grid of the map frame (floor(coordinate / voxel_m)). A tile's
+// "points" (optional) sample the added structure: one point per small voxel the vehicle found added
+// in two scans or more (the mean of its returns), in centimetres of the map frame, each in a voxel
+// of the tile's cells with `added` > 0; the map service builds the new structure of a tile from them.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -33,6 +38,9 @@ struct TileChangeEvidence {
   TileKey key;
   std::uint32_t scans = 0;        // scans whose returns fell in the tile
   std::vector<ChangeCell> cells;  // sorted by (x, y, z), each voxel once
+  // The added structure's sample: centimetres of the map frame, sorted, each once, each in a cell
+  // with added > 0.
+  std::vector<std::array<std::int32_t, 3>> points;
 };
 
 struct ChangeReport {
@@ -51,12 +59,19 @@ struct ChangeReportLimits {
   std::size_t max_bytes = 32u << 20;
   std::size_t max_tiles = 20000;
   std::size_t max_cells = 4u << 20;  // over all tiles
+  std::size_t max_points = 4u << 20;  // of the added sample, over all tiles
 };
 
 std::string change_report_json(const ChangeReport& report);
 
+// An id of a vehicle or a drive: 1 to 128 of [A-Za-z0-9_.:-] (reports, vehicle positions, file names).
+bool valid_id(std::string_view s);
+
+// The voxel (of `voxel_m`) a sample point in centimetres lies in.
+std::array<std::int32_t, 3> voxel_of_cm(const std::array<std::int32_t, 3>& p, double voxel_m);
+
 // Parses and checks a report (names, ids, finite times, positive grid sizes, tiles in key order
-// without repeats, cells inside their tile and in order). Throws pl::Error naming what is wrong.
+// without repeats, cells inside their tile and in order, sample points in order and in added cells). Throws pl::Error naming what is wrong.
 ChangeReport parse_change_report(std::string_view text, const ChangeReportLimits& limits = {});
 
 }  // namespace pl::schema

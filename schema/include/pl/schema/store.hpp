@@ -57,7 +57,9 @@ class StoreBackend;  // the engine: SQLite or PostgreSQL (schema/src/store_backe
 enum class VersionState { Staged, Published, Retired };
 const char* state_name(VersionState s);
 
-enum class Role { Read = 1, Upload = 2, Admin = 3 };  // each includes the ones below it
+// Each includes the ones below it. A report token (one per vehicle) reads maps and sends change
+// reports; an upload token also writes versions; an admin token also creates maps and manages tokens.
+enum class Role { Read = 1, Report = 2, Upload = 3, Admin = 4 };
 const char* role_name(Role r);
 std::optional<Role> parse_role(std::string_view name);
 
@@ -223,6 +225,34 @@ class Store {
   std::optional<Role> check_token(const std::string& token) const;
   bool revoke_token(std::int64_t id);
   std::vector<TokenInfo> list_tokens() const;
+
+  // Change reports from the fleet (pl/schema/change_report.hpp), kept as the JSON the vehicle sent,
+  // one per (map, vehicle, drive): a report sent again is the same report. put_report stores a
+  // report against an existing version of an existing map (pl::Error "PATH: unknown map NAME" or
+  // "... has no version N" otherwise) and answers Stored, or AlreadyStored when the same vehicle's
+  // drive is stored with the same bytes (nothing written), or Conflict when it is stored with other
+  // bytes (nothing written). The body must be 1 byte to 32 MiB (pl::Error otherwise); the store
+  // does not parse it (the server does before it calls put_report) but keeps its SHA-256, checked on
+  // read like a blob's. Reports are never changed (triggers refuse UPDATE); delete_reports removes a
+  // map's reports received before a time (retention) and returns how many. list_reports is ordered
+  // by id (the order received); `version` empty: all of the map's.
+  struct ReportInfo {
+    std::int64_t id = 0;
+    std::string map;
+    std::int64_t version = 0;
+    std::string vehicle, drive;
+    double start = 0, end = 0;  // the drive's span, seconds since 1970, as the report says
+    std::string hash;           // SHA-256 of the body, lowercase hex
+    std::int64_t bytes = 0;
+    std::string received, who;  // UTC ISO 8601; who sent it ("token 7", as the upload log names them)
+  };
+  enum class ReportPut { Stored, AlreadyStored, Conflict };
+  ReportPut put_report(const std::string& map, std::int64_t version, const std::string& vehicle, const std::string& drive,
+                       double start, double end, std::string_view body, const std::string& who);
+  std::vector<ReportInfo> list_reports(const std::string& map, std::optional<std::int64_t> version = std::nullopt) const;
+  // The report's JSON (nothing for an unknown id or map); bytes checked against their hash.
+  std::optional<std::string> report_body(const std::string& map, std::int64_t id) const;
+  std::int64_t delete_reports(const std::string& map, const std::string& received_before);
 
   // The append-only upload log (triggers refuse UPDATE and DELETE). `action` must not be empty;
   // upload_log(map) lists the map's entries oldest first.

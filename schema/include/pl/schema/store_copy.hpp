@@ -6,7 +6,8 @@
 // publish history a rollback walks back through: a rollback on the copy returns what it returns on
 // the original, again and again), tile records, blobs (once per SHA-256), places, signatures,
 // tokens (their stored hashes, roles, notes, created and revoked times: a token that opens the
-// original opens the copy, a revoked one stays revoked) and the upload log (ids, times, everything).
+// original opens the copy, a revoked one stays revoked), the upload log (ids, times, everything)
+// and the fleet's change reports (ids, received times, bytes).
 // Timestamps are copied to the millisecond, the store's precision (store.hpp); PostgreSQL's
 // microseconds beyond it are not.
 //
@@ -18,7 +19,8 @@
 //   damaged half-way, a value the destination cannot hold, a lost connection), the destination is
 //   left as it was; a SQLite file the copy created is removed again.
 // - The source is read from one snapshot (writers on it may go on; the copy is of the moment it
-//   started). Blobs and places pass through a few at a time: a store larger than memory is fine.
+//   started). Blobs, places and change reports pass through a few at a time: a store larger than
+//   memory is fine.
 // - Before committing, the destination's rows are read back and their digest (store_digest) must
 //   be the source's, and integrity_ok() must hold (its hashes of the blobs made by the read-back,
 //   which reads each blob once); else pl::Error, and nothing is committed.
@@ -35,7 +37,7 @@ namespace pl::store {
 struct CopyReport {
   std::int64_t maps = 0, versions = 0, tiles = 0, blobs = 0;
   std::int64_t blob_bytes = 0;  // the blobs' bytes (each blob once)
-  std::int64_t places = 0, signatures = 0, tokens = 0, log_entries = 0;
+  std::int64_t places = 0, signatures = 0, tokens = 0, log_entries = 0, reports = 0;
   std::string digest;  // of both stores' content (store_digest), equal on both
 };
 
@@ -50,13 +52,14 @@ CopyReport copy_store(const std::string& from, const std::string& to, const Copy
 // The canonical digest of a store's content (SHA-256, lowercase hex): every row of every table the
 // copy moves, ids and timestamps included, in a fixed order and encoding that do not depend on the
 // engine. Two stores with the same digest hold the same maps, versions, history, tiles, blob bytes,
-// places, signatures, tokens and log. Reads the store in one snapshot; a damaged store is an error.
+// places, signatures, tokens, log and change reports. A store without change reports has the digest
+// it had before schema version 5 (which added them). Reads the store in one snapshot; a damaged store is an error.
 std::string store_digest(const std::string& db);
 
 // `pl-map check`: the store checked as Store::integrity_ok() checks it and, when it is sound, its
 // store_digest — in one read of every blob (hashed once, for both). An empty optional when the
-// store is damaged (integrity_ok() would be false, or a blob or places does not hash to its hash);
-// other failures (the store out of reach, a value store_digest refuses) are the pl::Error they are.
+// store is damaged (integrity_ok() would be false, or a blob, places or change report does not hash
+// to its hash); other failures (the store out of reach, a value store_digest refuses) are the pl::Error they are.
 std::optional<std::string> checked_digest(const std::string& db);
 
 }  // namespace pl::store

@@ -35,11 +35,11 @@ struct ApiConfig {
   bool log_json = false;
   bool read_token_required = false;
   std::size_t blob_cache_bytes = 256u << 20;  // immutable tiles and places kept in memory, by content hash
-  // pl-server speaks plain HTTP (TLS ends in a proxy: deploy/nginx): requests that need the upload
-  // or admin role are refused unless they come from this machine (the proxy's side), or this says a
-  // TLS proxy on another machine forwards them.
+  // pl-server speaks plain HTTP (TLS ends in a proxy: deploy/nginx): requests that need the report,
+  // upload or admin role (writes) are refused unless they come from this machine (the proxy's side),
+  // or this says a TLS proxy on another machine forwards them.
   bool plain_uploads = false;
-  // Requests that need the upload or admin role, per token: this many a second on average, bursts
+  // Requests that need the report, upload or admin role, per token: this many a second on average, bursts
   // of upload_burst (429 with Retry-After beyond). 0: no limit.
   double upload_rate = 200, upload_burst = 400;
   // The fleet's Ed25519 public keys (32 bytes each; pl-server --fleet-key). When any is given, a
@@ -51,7 +51,20 @@ struct ApiConfig {
   // expiring timestamp_lifetime_s later (pl/schema/signed_current.hpp). Unset: that route is 404.
   std::shared_ptr<const signing::SigningKey> timestamp_key;
   std::int64_t timestamp_lifetime_s = 300;
+  // The map viewer (server/src/viewer.cpp): its static files' folder (empty: default_viewer_dir()),
+  // how many Server-Sent Events streams may be open at once (503 beyond), and the live vehicles kept
+  // in memory: at most max_vehicles, each dropped vehicle_timeout_s after its last report.
+  std::string viewer_dir;
+  std::size_t max_event_streams = 64;
+  std::size_t max_vehicles = 1000;
+  double vehicle_timeout_s = 60;
 };
+
+// The viewer's folder when none is given: the installed one beside the binary
+// (PREFIX/share/pointlocalization/viewer), else the build tree's (BUILD/viewer).
+std::string default_viewer_dir();
+
+class EventStream;  // a Server-Sent Events stream (server/src/viewer.hpp)
 
 struct ApiRequest {
   std::string method;
@@ -60,6 +73,7 @@ struct ApiRequest {
   std::string authorization;
   std::string if_none_match;
   std::string accept_encoding;
+  std::string content_encoding;  // of the body ("gzip" is taken where a route says so)
   std::string request_id;  // the server's id of the request, for the log of an internal error
   bool from_loopback = true;  // the peer's address is this machine's (Server sets it from the socket)
 };
@@ -78,6 +92,9 @@ struct ApiResponse {
   // the body (cheaper than hashing it); empty: the body's SHA-256.
   bool revalidate = false;
   std::string etag;
+  // When set (GET /v1/maps/{map}/events), the answer is a Server-Sent Events stream: the network
+  // side sends the header, then what the stream queues, until either side ends it.
+  std::shared_ptr<EventStream> events;
 };
 
 // Prometheus metrics: requests by route and status, latency histogram, bytes served, connections.
@@ -93,7 +110,9 @@ class Metrics {
                                             "/v1/maps/{map}/versions", "/v1/maps/{map}/versions/{v}/tiles",
                                             "/v1/maps/{map}/versions/{v}/tiles/{tx}/{ty}", "/v1/maps/{map}/versions/{v}/publish",
                                             "/v1/maps/{map}/versions/{v}/places", "/v1/maps/{map}/versions/{v}/manifest",
-                                            "/v1/blobs/{hash}", "other"};
+                                            "/v1/maps/{map}/reports", "/v1/maps/{map}/changes", "/v1/maps/{map}/update",
+                                            "/v1/maps/{map}/versions/{v}/overview", "/v1/maps/{map}/vehicles", "/v1/maps/{map}/vehicles/{id}",
+                                            "/v1/maps/{map}/events", "/viewer/{file}", "/v1/blobs/{hash}", "other"};
   static constexpr int kStatuses[] = {200, 201, 204, 304, 400, 401, 403, 404, 405, 409, 413, 422, 429, 431, 500, 503, 0};  // 0: any other
   static constexpr double kBuckets[] = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 1.0};
   static constexpr std::size_t kNRoutes = sizeof(kRoutes) / sizeof(kRoutes[0]), kNStatuses = sizeof(kStatuses) / sizeof(int),
