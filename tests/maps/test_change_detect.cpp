@@ -8,6 +8,7 @@
 
 #include "pl/common/error.hpp"
 #include "pl/maps/change_detect.hpp"
+#include "change_reports.hpp"
 
 namespace {
 
@@ -19,15 +20,7 @@ using pl::schema::ChangeReport;
 // A report of one drive past tile (0, 0) (40 scans) with the given voxels.
 ChangeReport report(const std::string& vehicle, const std::string& drive, double start, std::vector<ChangeCell> cells,
                     std::int64_t version = 2) {
-  ChangeReport r;
-  r.map = "town";
-  r.version = version;
-  r.vehicle = vehicle;
-  r.drive = drive;
-  r.start = start;
-  r.end = start + 60;
-  r.voxel_m = 0.5;
-  r.tile_m = 20;
+  ChangeReport r = pl::test::drive_report("town", version, vehicle, drive, start);
   pl::schema::TileChangeEvidence t;
   t.key = {0, 0};
   t.scans = 40;

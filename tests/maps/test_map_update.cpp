@@ -15,6 +15,7 @@
 #include "pl/maps/import.hpp"
 #include "pl/maps/map_update.hpp"
 #include "pl/schema/change_report.hpp"
+#include "change_reports.hpp"
 #include "error_of.hpp"
 #include "test_util.hpp"
 
@@ -49,15 +50,7 @@ pl::Cloud street() {
 // container's face at y = 10, x 45..48, z 0..2 added (and its sample every 0.2 m), the others seen
 // with nothing changed.
 ChangeReport drive(const std::string& vehicle, const std::string& id, double start, std::int64_t version = 1) {
-  ChangeReport r;
-  r.map = "street";
-  r.version = version;
-  r.vehicle = vehicle;
-  r.drive = id;
-  r.start = start;
-  r.end = start + 30;
-  r.voxel_m = 0.5;
-  r.tile_m = 20;
+  ChangeReport r = pl::test::drive_report("street", version, vehicle, id, start, 30);
   pl::schema::TileChangeEvidence seen0, car, box, seen1;
   seen0.key = {0, 0};
   car.key = {1, 0};

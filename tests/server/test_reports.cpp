@@ -16,6 +16,7 @@
 #include "pl/schema/change_report.hpp"
 #include "pl/schema/http_client.hpp"
 #include "pl/schema/store.hpp"
+#include "change_reports.hpp"
 #include "map_fixture.hpp"
 #include "server_process.hpp"
 #include "test_util.hpp"
@@ -47,15 +48,7 @@ void expect_error(const pl::api::HttpResponse& r, int status, const std::string&
 // One drive past the street (pl-test's map fixture): the pole at (5.1, 5.1) passed through from
 // 0.5 m up (it is gone), a box face at y = 10, x 25..28 added (with its sample), tiles seen.
 ChangeReport drive(const std::string& vehicle, const std::string& id, double start, std::int64_t version = 1) {
-  ChangeReport r;
-  r.map = "town";
-  r.version = version;
-  r.vehicle = vehicle;
-  r.drive = id;
-  r.start = start;
-  r.end = start + 60;
-  r.voxel_m = 0.5;
-  r.tile_m = 20;
+  ChangeReport r = pl::test::drive_report("town", version, vehicle, id, start);
   pl::schema::TileChangeEvidence pole, box, seen;
   pole.key = {0, 0};
   box.key = {1, 0};
