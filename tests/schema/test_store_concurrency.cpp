@@ -33,6 +33,28 @@ using pl::test::put_cell;
 const pl::GeoPoint kOrigin{48.137, 11.575, 519.0};
 
 using StoreConcurrencyTest = pl::test::BackendTest;
+
+// Runs f(0) .. f(n - 1) on n threads released together (each waits for all to have started);
+// returns each one's exception message ("" when it threw none).
+template <class F>
+std::vector<std::string> all_at_once(int n, F f) {
+  std::vector<std::string> errors(static_cast<std::size_t>(n));
+  std::atomic<int> ready{0};
+  std::vector<std::thread> threads;
+  for (int t = 0; t < n; ++t)
+    threads.emplace_back([&, t] {
+      const auto i = static_cast<std::size_t>(t);
+      ready.fetch_add(1);
+      while (ready.load() < n) std::this_thread::yield();
+      try {
+        f(i);
+      } catch (const std::exception& e) {
+        errors[i] = e.what();
+      }
+    });
+  for (auto& th : threads) th.join();
+  return errors;
+}
 PL_BOTH_BACKENDS(StoreConcurrencyTest);
 
 TEST_P(StoreConcurrencyTest, TwoConnectionsSeeEachOthersCommittedWrites) {
@@ -188,22 +210,8 @@ TEST_P(StoreConcurrencyTest, ConditionalPublishesOfOneMapHaveExactlyOneWinnerARo
       mine[static_cast<std::size_t>(t)] = v.number;
     }
     std::vector<int> won(kThreads, -1);
-    std::vector<std::string> errors(kThreads);
-    std::atomic<int> ready{0};
-    std::vector<std::thread> threads;
-    for (int t = 0; t < kThreads; ++t)
-      threads.emplace_back([&, t] {
-        const auto i = static_cast<std::size_t>(t);
-        ready.fetch_add(1);
-        while (ready.load() < kThreads) std::this_thread::yield();  // all at once
-        try {
-          won[i] = conns[i].publish_if_current("m", mine[i], current) ? 1 : 0;
-        } catch (const std::exception& e) {
-          errors[i] = e.what();
-        }
-      });
-    for (auto& th : threads) th.join();
-    for (const auto& e : errors) EXPECT_EQ(e, "");
+    for (const auto& e : all_at_once(kThreads, [&](std::size_t i) { won[i] = conns[i].publish_if_current("m", mine[i], current) ? 1 : 0; }))
+      EXPECT_EQ(e, "");
     ASSERT_EQ(std::count(won.begin(), won.end(), 1), 1) << "round " << round;
     const auto winner = static_cast<std::size_t>(std::find(won.begin(), won.end(), 1) - won.begin());
     Store s = Store::open(path);
@@ -241,22 +249,10 @@ TEST_P(StoreConcurrencyTest, ConcurrentPutsOfOneDriveStoreItOnce) {
     const std::string drive = "drive-" + std::to_string(round);
     auto body = [&](int t) { return "{\"round\":" + std::to_string(round) + ",\"from\":" + std::to_string(same ? 0 : t) + "}"; };
     std::vector<Put> got(kThreads);
-    std::vector<std::string> errors(kThreads);
-    std::atomic<int> ready{0};
-    std::vector<std::thread> threads;
-    for (int t = 0; t < kThreads; ++t)
-      threads.emplace_back([&, t] {
-        const auto i = static_cast<std::size_t>(t);
-        ready.fetch_add(1);
-        while (ready.load() < kThreads) std::this_thread::yield();  // all at once
-        try {
-          got[i] = conns[i].put_report("m", 1, "car", drive, 0, 1, body(t), "token " + std::to_string(t));
-        } catch (const std::exception& e) {
-          errors[i] = e.what();
-        }
-      });
-    for (auto& th : threads) th.join();
-    for (const auto& e : errors) ASSERT_EQ(e, "");
+    for (const auto& e : all_at_once(kThreads, [&](std::size_t i) {
+           got[i] = conns[i].put_report("m", 1, "car", drive, 0, 1, body(static_cast<int>(i)), "token " + std::to_string(i));
+         }))
+      ASSERT_EQ(e, "");
     ASSERT_EQ(std::count(got.begin(), got.end(), Put::Stored), 1) << "round " << round;
     EXPECT_EQ(std::count(got.begin(), got.end(), same ? Put::AlreadyStored : Put::Conflict), kThreads - 1) << "round " << round;
     const int winner = static_cast<int>(std::find(got.begin(), got.end(), Put::Stored) - got.begin());
