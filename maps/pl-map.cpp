@@ -391,9 +391,7 @@ void add_update(Tool& tool) {
     std::vector<pl::schema::ChangeReport> reports = read_reports(o->reports);
     if (o->reports.empty()) {
       const auto m = maps::need_map(store, o->map);
-      if (m.current)
-        for (const auto& info : store.list_reports(o->map, *m.current))
-          if (auto body = store.report_body(o->map, info.id)) reports.push_back(pl::schema::parse_change_report(*body));
+      if (m.current) reports = maps::stored_reports(store, o->map, *m.current);
     }
     const maps::MapUpdateResult r = maps::update_map(store, o->map, reports, o->cfg);
     std::size_t candidates = 0;

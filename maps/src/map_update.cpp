@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <set>
 #include <sstream>
 #include <tuple>
@@ -65,13 +66,18 @@ MapUpdateResult update_map(store::Store& s, const std::string& map, const std::v
   const TileGrid grid(info.tile_size);
   const double ev = r.summary.voxel_m;
   const double radius = cfg.normal_radius_m > 0 ? cfg.normal_radius_m : 3.0 * info.voxel_size;
-  auto load = [&](const TileKey& key) {
+  // The parent's tiles, each read and decoded once (neighbouring candidates share neighbours).
+  std::map<TileKey, TileCloud> decoded;
+  auto load = [&](const TileKey& key) -> const TileCloud& {
+    auto [it, fresh] = decoded.try_emplace(key);
+    if (!fresh) return it->second;
     const auto rec = s.find_tile(map, r.parent, key);
-    if (!rec) return TileCloud{};
+    if (!rec) return it->second;
     const auto bytes = s.blob(rec->hash);
     if (!bytes) throw Error("map " + map + " v" + std::to_string(r.parent) + ": tile " + std::to_string(key.tx) + " " +
                             std::to_string(key.ty) + " has no stored bytes (check the store with pl-map check)");
-    return decode_tile(*bytes);
+    it->second = decode_tile(*bytes);
+    return it->second;
   };
 
   // Each candidate rebuilt, before the store is written.
@@ -86,7 +92,7 @@ MapUpdateResult update_map(store::Store& s, const std::string& map, const std::v
     b.u.passes = c->passes;
     b.u.removed_voxels = c->removed.size();
     b.u.added_voxels = c->added.size();
-    const TileCloud old = load(c->key);
+    const TileCloud& old = load(c->key);
     b.u.before = old.size();
     std::set<Voxel> gone;
     for (const auto& v : c->removed) gone.insert({v.x, v.y, v.z});
@@ -121,7 +127,7 @@ MapUpdateResult update_map(store::Store& s, const std::string& map, const std::v
       for (int dx = -1; dx <= 1; ++dx)
         for (int dy = -1; dy <= 1; ++dy) {
           if (dx == 0 && dy == 0) continue;
-          const TileCloud n = load({c->key.tx + dx, c->key.ty + dy});
+          const TileCloud& n = load({c->key.tx + dx, c->key.ty + dy});
           context.insert(context.end(), n.points.begin(), n.points.end());
         }
       const auto normals = registration::estimate_normals(context, radius);
@@ -172,6 +178,13 @@ MapUpdateResult update_map(store::Store& s, const std::string& map, const std::v
   s.log_upload(map, r.version->number, kAction, detail, cfg.who);
   tx.commit();
   return r;
+}
+
+std::vector<schema::ChangeReport> stored_reports(const store::Store& s, const std::string& map, std::int64_t version) {
+  std::vector<schema::ChangeReport> out;
+  for (const auto& info : s.list_reports(map, version))
+    if (auto body = s.report_body(map, info.id)) out.push_back(schema::parse_change_report(*body));
+  return out;
 }
 
 std::vector<std::pair<TileKey, std::string>> update_reasons(const store::Store& s, const std::string& map, std::int64_t version) {

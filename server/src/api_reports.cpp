@@ -36,15 +36,6 @@ maps::ChangeRule rule_from(const json& j) {
   return rule;
 }
 
-std::vector<schema::ChangeReport> stored_reports(store::Store& db, const std::string& map, std::int64_t version) {
-  std::vector<schema::ChangeReport> out;
-  for (const auto& info : db.list_reports(map, version)) {
-    auto body = db.report_body(map, info.id);
-    if (body) out.push_back(schema::parse_change_report(*body));  // parsed when received: a failure here is damage
-  }
-  return out;
-}
-
 }  // namespace
 
 ApiResponse post_report(store::Store& db, const ApiRequest& req, const std::string& map, const std::string& by) {
@@ -114,7 +105,7 @@ ApiResponse changes(store::Store& db, const Target& t, const std::string& map) {
       q[k] = json::parse(t.query.at(k), nullptr, false);
       if (q[k].is_discarded()) fail(400, std::string("\"") + k + "\" must be a whole number");
     }
-  const maps::ChangeSummary s = maps::detect_changes(stored_reports(db, map, version), version, rule_from(q));
+  const maps::ChangeSummary s = maps::detect_changes(maps::stored_reports(db, map, version), version, rule_from(q));
   json tiles = json::array();
   for (const auto& c : s.tiles) {
     tiles.push_back({{"tx", c.key.tx}, {"ty", c.key.ty}, {"passes", c.passes.size()}, {"agreed", c.agreed},
@@ -143,7 +134,7 @@ ApiResponse update(store::Store& db, const ApiRequest& req, const std::string& m
     cfg.note = j["note"].get<std::string>();
   }
   const bool and_publish = j.contains("publish") && j["publish"].is_boolean() && j["publish"].get<bool>();
-  const maps::MapUpdateResult r = maps::update_map(db, map, stored_reports(db, map, *m->current), cfg);
+  const maps::MapUpdateResult r = maps::update_map(db, map, maps::stored_reports(db, map, *m->current), cfg);
   json tiles = json::array();
   for (const auto& u : r.tiles)
     tiles.push_back({{"tx", u.key.tx}, {"ty", u.key.ty}, {"before", u.before}, {"removed", u.removed}, {"added", u.added},

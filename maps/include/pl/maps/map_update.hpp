@@ -45,6 +45,11 @@ struct MapUpdateResult {
   std::size_t unchanged = 0;                   // tiles that keep their bytes
 };
 
+// The change reports the store holds against a version of the map (POST /v1/maps/{map}/reports
+// stored them), parsed. Throws pl::Error for a report that no longer parses (damage: the service
+// parsed each before storing it).
+std::vector<schema::ChangeReport> stored_reports(const store::Store& store, const std::string& map, std::int64_t version);
+
 // Stages the update of map `map`'s current version from `reports` (those against other versions
 // are not counted). In one transaction: the version, its rebuilt tiles, and an upload-log entry
 // "update" whose detail holds a line "TX TY: reason" per tile (pl-map diff prints them). Stages
