@@ -17,3 +17,6 @@ cmake -S "$src/tests/install/consumer" -B "$work/build" -G Ninja -DCMAKE_PREFIX_
   -DEXAMPLE_SOURCE="$src/docs/examples/embed_localizer.cpp" >"$work/configure.log"
 cmake --build "$work/build" >"$work/build.log"
 "$work/build/consumer" "$work/yard.sqlite"
+# The prefix holds a copy of every library and tool (some 700 MB in the sanitizer build): it is kept
+# only when the test fails, for its logs.
+rm -rf "$work"
