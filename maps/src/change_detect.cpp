@@ -40,6 +40,7 @@ void ChangeRule::validate() const {
   need(independent_s >= 0, "independent_s must be 0 or more seconds");
   need(added_min >= 1 && removed_min >= 1, "added_min and removed_min must be 1 or more");
   need(added_free_ratio >= 0 && removed_seen_ratio >= 0, "the ratios must be 0 or more");
+  need(added_stays >= added_min, "added_stays must be at least added_min");
   need(tolerance_voxels >= 0 && tolerance_voxels <= 3, "tolerance_voxels must be within 0..3");
   need(min_cells >= 1, "min_cells must be 1 or more");
 }
@@ -84,7 +85,8 @@ ChangeSummary detect_changes(const std::vector<ChangeReport>& reports, std::int6
       if (t.scans < rule.min_scans) continue;
       PassCells pc{p, &t, {}, {}};
       for (const ChangeCell& c : t.cells) {
-        if (c.added >= rule.added_min && c.added >= rule.added_free_ratio * c.free) pc.added.push_back(&c);
+        if (c.added >= rule.added_min && (c.added >= rule.added_free_ratio * c.free || c.added >= rule.added_stays))
+          pc.added.push_back(&c);
         if (c.passed >= rule.removed_min && c.passed >= rule.removed_seen_ratio * c.seen) pc.removed.push_back(&c);
       }
       by_tile[t.key].push_back(std::move(pc));

@@ -86,6 +86,21 @@ TEST(ChangeDetect, TrafficIsNoChange) {
             0u);
 }
 
+TEST(ChangeDetect, WhatManyScansOfAPassFoundStaysWhateverCrossedIt) {
+  // A hedge grown half a metre up: its new top fills the lower part of 12 voxels, which 12 scans of
+  // each pass found added, while rays to farther things crossed their empty upper part in 14.
+  std::vector<ChangeCell> hedge, fewer;
+  for (int x = 0; x < 12; ++x) {
+    hedge.push_back({x, 6, 3, 12, 14, 0, 0});
+    fewer.push_back({x, 6, 3, 11, 14, 0, 0});  // one scan short: crossed more than twice as often as found
+  }
+  EXPECT_EQ(candidates(detect_changes({report("a", "a1", 0, hedge), report("b", "b1", kDay, hedge)}, 2)), 1u);
+  EXPECT_EQ(candidates(detect_changes({report("a", "a1", 0, fewer), report("b", "b1", kDay, fewer)}, 2)), 0u);
+  ChangeRule strict;
+  strict.added_stays = 13;
+  EXPECT_EQ(candidates(detect_changes({report("a", "a1", 0, hedge), report("b", "b1", kDay, hedge)}, 2, strict)), 0u);
+}
+
 TEST(ChangeDetect, OnlyTheLastPassesCountAndOnlyTheVersionAsked) {
   // Changed in the two oldest of four passes, gone in the two newest (window 3): one of the last
   // three agrees, no candidate.
@@ -117,6 +132,9 @@ TEST(ChangeDetect, RefusesMixedReportsAndBadRules) {
   EXPECT_THROW(detect_changes({report("a", "a1", 0, container()), other}, 2), pl::Error);
   ChangeRule rule;
   rule.window = 1;  // fewer passes judged than must agree
+  EXPECT_THROW(detect_changes({}, 2, rule), pl::Error);
+  rule = {};
+  rule.added_stays = rule.added_min - 1;
   EXPECT_THROW(detect_changes({}, 2, rule), pl::Error);
   const std::string csv = pl::maps::change_summary_csv(detect_changes({report("a", "a1", 0, container()), report("b", "b1", kDay, container())}, 2));
   EXPECT_EQ(csv, "tx,ty,passes,agreed,added,removed,candidate,drives\n0,0,2,12,12,0,1,a/a1 b/b1\n");

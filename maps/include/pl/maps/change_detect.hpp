@@ -6,7 +6,9 @@
 // The rule, per tile, over the last `window` passes that saw it (`min_scans` scans of it or more):
 //  - a voxel is added in a pass when `added_min` of its scans or more found a return there with no
 //    map surface near, and at least `added_free_ratio` times as many as saw through it later
-//    (a moving thing is seen through once it has gone);
+//    (a moving thing is seen through once it has gone), or `added_stays` or more found it whatever
+//    crossed it: a thing moving through fills a voxel for a few of a pass's scans, and rays cross
+//    a voxel that new leaves fill only in part above or beside them;
 //  - a voxel is removed in a pass when `removed_min` of its scans or more passed through its map
 //    points, and at least `removed_seen_ratio` times as many as confirmed the map there or next to it
 //    (glass, leaves and edges are passed and confirmed alike);
@@ -33,6 +35,7 @@ struct ChangeRule {
   std::uint32_t min_scans = 3;
   std::uint32_t added_min = 3;
   double added_free_ratio = 2.0;
+  std::uint32_t added_stays = 12;  // with evidence one scan per 2.5 m of travel: 30 m of a pass
   std::uint32_t removed_min = 2;
   double removed_seen_ratio = 5.0;
   int tolerance_voxels = 1;
