@@ -12,6 +12,7 @@
 #include <deque>
 #include <mutex>
 #include <optional>
+#include <sstream>
 #include <thread>
 
 #include "pl/client/config_fields.hpp"
@@ -343,9 +344,13 @@ VehicleLocalizer::VehicleLocalizer(const VehicleLocalizerConfig& cfg) : impl_(st
     tc.radius_m = std::max(tc.radius_m, cfg.localizer.roi_radius_m + 20.0);
     m.client_cfg = tc;
     m.client = std::make_unique<TileClient>(tc);
-    if (!m.client->wait_ready(cfg.ready_timeout_s))
-      throw Error("no map '" + tc.map + "' from " + tc.server + " and none in the disk cache (" + m.client->status().last_error +
+    if (!m.client->wait_ready(cfg.ready_timeout_s)) {
+      std::ostringstream waited;
+      waited << cfg.ready_timeout_s;
+      throw Error("no map '" + tc.map + "' from " + tc.server + " within " + waited.str() + " s and none in the disk cache (" +
+                  m.client->status().last_error +
                   "): is pl-server running, or give TileClientConfig::cache_path of an earlier drive");
+    }
     const TileClientStatus st = m.client->status();
     m.tile_size = st.tile_size;
     m.version = st.version;

@@ -113,6 +113,9 @@ std::string Metrics::render(std::int64_t database_bytes) const {
   o << "pl_bytes_served_total " << bytes_.load() << "\n";
   o << "# HELP pl_open_connections Connections open now.\n# TYPE pl_open_connections gauge\n";
   o << "pl_open_connections " << open_connections.load() << "\n";
+  o << "# HELP pl_requests_in_progress Requests begun (header read) and not yet answered, this one included.\n"
+       "# TYPE pl_requests_in_progress gauge\n";
+  o << "pl_requests_in_progress " << requests_in_progress.load() << "\n";
   if (database_bytes >= 0) {
     o << "# HELP pl_database_bytes Size of the map store.\n# TYPE pl_database_bytes gauge\n";
     o << "pl_database_bytes " << database_bytes << "\n";

@@ -225,6 +225,7 @@ struct Server::Impl {
       ++server_.metrics.open_connections;
     }
     ~Session() {
+      busy(false);
       --server_.metrics.open_connections;
       std::lock_guard<std::mutex> lock(server_.sessions_mutex);
       server_.sessions.erase(this);
@@ -248,7 +249,14 @@ struct Server::Impl {
     }
 
    private:
+    // Counts the request in pl_requests_in_progress from its header to its answer.
+    void busy(bool now) {
+      if (now != busy_) server_.metrics.requests_in_progress += now ? 1 : -1;
+      busy_ = now;
+    }
+
     void read() {
+      busy(false);
       parser_.emplace();
       limit_parser(*parser_, server_.cfg.header_limit);
       // Idle between requests, then the read timeout once a request has begun.
@@ -261,6 +269,7 @@ struct Server::Impl {
     void on_header(beast::error_code ec, std::size_t) {
       idle_ = false;
       if (ec) return fail_read(ec);
+      busy(true);
       first_ = false;
       if (int status = admit_body(*parser_)) {
         linger_ = true;  // the client is still sending the body: let it finish so it reads the 413
@@ -593,6 +602,7 @@ struct Server::Impl {
     std::string request_id_;
     bool first_ = true;
     bool idle_ = false;
+    bool busy_ = false;
     bool linger_ = false;
     std::vector<char> discard_;
     std::chrono::steady_clock::time_point start_;

@@ -4,7 +4,6 @@
 // --set and --list-settings over them.
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -449,20 +448,16 @@ TEST(ConfigFieldsCli, PlLocalizeListSettingsShowsEveryNameWithItsValue) {
 }
 
 // The values reach the run: the constructor's wait for an unreachable server is ready_timeout_s
-// (30 s by default), here 0.3 s.
+// (30 s by default), here 0.3 s, and the error says how long it waited.
 TEST(ConfigFieldsCli, PlLocalizeAppliesTheSettings) {
   pl::test::TempDir dir;
   const float point[4] = {10.0f, 0.0f, 0.0f, 0.5f};
   std::filesystem::create_directories(dir / "velodyne");
   std::ofstream(dir / "velodyne/000000.bin", std::ios::binary).write(reinterpret_cast<const char*>(point), sizeof point);
   pl::test::write_file(dir / "times.txt", "0.0\n");
-  const auto t0 = std::chrono::steady_clock::now();
   const auto r = pl::test::run(pl::test::tool("pl-localize") + " --dataset " + dir.path() +
-                               " --server http://127.0.0.1:9 --map m --init 0,0,0,0"
-                               " --out " +
-                               (dir / "o.tum") + " --set ready_timeout_s=0.3");
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                               " --server http://127.0.0.1:9 --map m --init 0,0,0,0 --out " + (dir / "o.tum") +
+                               " --set ready_timeout_s=0.3");
   EXPECT_EQ(r.exit_code, 2) << r.output;
-  EXPECT_EQ(r.output.rfind("pl-localize: error: no map 'm' from http://127.0.0.1:9", 0), 0u) << r.output;
-  EXPECT_LT(seconds, 15.0) << r.output;
+  EXPECT_EQ(r.output.rfind("pl-localize: error: no map 'm' from http://127.0.0.1:9 within 0.3 s", 0), 0u) << r.output;
 }

@@ -1,11 +1,14 @@
 // A vehicle moves to a newer map version mid-drive: a real pl-server serves map "street" v1, the
-// vehicle localizes along it following the map's versions, v2 (one tile rebuilt, as pl-map update
-// makes them) is published halfway; the vehicle takes it between two scans, with the tiles the
-// versions share taken from what it holds, and its pose goes on without a jump.
+// vehicle localizes along it following the map's versions; halfway the street changes (a parked van
+// gone, a container put down) and v2, its changed tiles rebuilt as pl-map update makes them, is
+// published. The vehicle takes v2 between two scans, with the tiles the versions share taken from
+// what it holds, and its pose goes on without a jump.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <vector>
 
 #include "pl/client/vehicle_localizer.hpp"
 #include "pl/common/pose.hpp"
@@ -31,9 +34,23 @@ void put(pl::store::Store& store, std::int64_t version, const pl::TileKey& key, 
 
 Eigen::Isometry3d base_at(double t) { return pl::make_pose(-20.0 + 5.0 * t, 0.5, 0.0, 0, 0, 0.02 * t); }
 
-pl::Scan scan_from(const Eigen::Isometry3d& lidar_in_map, unsigned seed) {
+// The street "six months later": the van parked at x = 7..11 is gone, a container stands at x = 10..16.
+std::vector<pl::test::Surface> street_later() {
+  std::vector<pl::test::Surface> s;
+  for (const auto& surface : pl::test::street())
+    if (surface.origin.x() != 7.0 && surface.origin.x() != 11.0) s.push_back(surface);
+  const Eigen::Vector3d o{10.0, 2.0, 0.0}, along{6.0, 0.0, 0.0}, across{0.0, 2.4, 0.0}, up{0.0, 0.0, 2.6};
+  s.push_back({o, along, up});
+  s.push_back({o + across, along, up});
+  s.push_back({o, across, up});
+  s.push_back({o + along, across, up});
+  s.push_back({o + up, along, across});
+  return s;
+}
+
+pl::Scan scan_from(const std::vector<pl::test::Surface>& world, const Eigen::Isometry3d& lidar_in_map, unsigned seed) {
   pl::Scan out;
-  for (const auto& p : pl::test::scan_of(pl::test::street(), lidar_in_map, 0.5, 60.0, seed)) out.push_back({p.x(), p.y(), p.z(), 0.5f});
+  for (const auto& p : pl::test::scan_of(world, lidar_in_map, 0.5, 60.0, seed)) out.push_back({p.x(), p.y(), p.z(), 0.5f});
   return out;
 }
 
@@ -64,16 +81,11 @@ TEST(MapSwap, ANewVersionMovesInMidDriveWithoutAJump) {
   loc.start(base_at(0.0), 0.0);
   ASSERT_TRUE(loc.wait_idle());
 
-  // The tile the vehicle drives through at x = 0..20, rebuilt: every other point (another hash).
-  const pl::TileKey changed{0, 0};
-  ASSERT_TRUE(tiles.count(changed));
-  pl::TileCloud thinned;
-  const pl::TileCloud& full = tiles.at(changed);
-  for (std::size_t i = 0; i < full.size(); i += 2) {
-    thinned.points.push_back(full.points[i]);
-    if (!full.normals.empty()) thinned.normals.push_back(full.normals[i]);
-    if (!full.intensity.empty()) thinned.intensity.push_back(full.intensity[i]);
-  }
+  // v2: the tiles the change touched, rebuilt from the street as it is now.
+  std::map<pl::TileKey, pl::TileCloud> rebuilt;
+  for (const auto& [key, cloud] : pl::test::surface_tiles(street_later(), 0.2, kTile))
+    if (!tiles.count(key) || tiles.at(key).points != cloud.points) rebuilt.emplace(key, cloud);
+  ASSERT_EQ(rebuilt.size(), 2u) << "the van's tile and the container's";
 
   double max_error = 0, max_step_error = 0;
   Eigen::Isometry3d previous = base_at(0.0);
@@ -84,10 +96,10 @@ TEST(MapSwap, ANewVersionMovesInMidDriveWithoutAJump) {
     if (k == 12) {  // v2 is published (by pl-map update on the service, here straight into the store)
       auto store = pl::store::Store::open(db, false);
       store.create_version("street", 1, "update");
-      put(store, 2, changed, thinned);
+      for (const auto& [key, cloud] : rebuilt) put(store, 2, key, cloud);
       store.publish("street", 2);
     }
-    loc.add_scan(t, scan_from(base_at(t), 100 + static_cast<unsigned>(k)));
+    loc.add_scan(t, scan_from(k < 12 ? pl::test::street() : street_later(), base_at(t), 100 + static_cast<unsigned>(k)));
     ASSERT_TRUE(loc.wait_idle());
     if (moved_at < 0 && loc.map_version() == 2) moved_at = k;
     const auto p = loc.pose_at(t);
@@ -110,9 +122,15 @@ TEST(MapSwap, ANewVersionMovesInMidDriveWithoutAJump) {
   const auto st = loc.tile_status();
   EXPECT_EQ(st.version, 2);
   EXPECT_GT(st.seeded, 0u) << "the tiles both versions share come from what the vehicle held";
-  // The ROI map holds the rebuilt tile's new bytes.
-  const std::string v2_hash = pl::store::Store::open(db, false).find_tile("street", 2, changed)->hash;
-  bool held = false;
-  for (const auto& t : loc.map_tiles()) held |= t.key == changed && t.hash == v2_hash;
-  EXPECT_TRUE(held);
+  // The ROI map holds the rebuilt tiles' new bytes.
+  const auto store = pl::store::Store::open(db, false);
+  for (const auto& [key, cloud] : rebuilt) {
+    const auto v1 = store.find_tile("street", 1, key), v2 = store.find_tile("street", 2, key);
+    ASSERT_TRUE(v1 && v2);
+    const std::string v2_hash = v2->hash;
+    EXPECT_NE(v2_hash, v1->hash);
+    bool held = false;
+    for (const auto& t : loc.map_tiles()) held |= t.key == key && t.hash == v2_hash;
+    EXPECT_TRUE(held) << "tile " << key.tx << "/" << key.ty;
+  }
 }

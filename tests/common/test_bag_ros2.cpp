@@ -594,7 +594,7 @@ TEST(Ros2Bag, MessageRefOfAnotherReaderIsRefused) {
 
 // A bag written by Python's sqlite3 module, the way rosbag2 writes one, with a metadata.yaml.
 TEST(Ros2Bag, BagWrittenByPythonIsReadAsWritten) {
-  if (!fs::exists("/usr/bin/python3")) GTEST_SKIP() << "no /usr/bin/python3";
+  ASSERT_TRUE(fs::exists("/usr/bin/python3")) << "no /usr/bin/python3: apt-get install python3 (./pl test installs it)";
   TempDir dir;
   write_file(dir / "make_bag.py", R"PY(
 import os, sqlite3, sys

@@ -620,7 +620,8 @@ TEST(TileCodec, EveryFuzzFindingIsRefusedWithoutItsMemory) {
 
 // Debian's draco_decoder reads our tiles (as offsets from the tile origin).
 TEST(TileCodec, DracoDecoderReadsTiles) {
-  if (pl::test::run("command -v draco_decoder").exit_code != 0) GTEST_SKIP() << "draco_decoder is not installed";
+  ASSERT_EQ(pl::test::run("command -v draco_decoder").exit_code, 0)
+      << "draco_decoder is missing: apt-get install draco (./pl test installs it)";
   const pl::test::TempDir dir;
   const TileCloud tile = realistic_tile({4000.0, -2500.0, 0.0}, 8);
   TileCloud positions_only;
@@ -638,7 +639,8 @@ TEST(TileCodec, DracoDecoderReadsTiles) {
 
 // A Draco point cloud written by another tool (no "pl.origin" metadata) decodes with origin 0.
 TEST(TileCodec, DecodesForeignDracoPointClouds) {
-  if (pl::test::run("command -v draco_encoder").exit_code != 0) GTEST_SKIP() << "draco_encoder is not installed";
+  ASSERT_EQ(pl::test::run("command -v draco_encoder").exit_code, 0)
+      << "draco_encoder is missing: apt-get install draco (./pl test installs it)";
   const pl::test::TempDir dir;
   const TileCloud cloud = random_cloud(300, {-5.0, 2.0, 1.0}, {10, 10, 3}, 19);
   std::ostringstream ply;

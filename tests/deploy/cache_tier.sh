@@ -4,8 +4,8 @@
 # of a real pl-server serving a small map made here, and what a fleet relies on checked through it.
 #   bash tests/deploy/cache_tier.sh BIN_DIR [varnish|nginx|both]
 # BIN_DIR holds pl-server and pl-map. Prints "ok: ..." or "FAIL: ..." a check and a few figures;
-# exit 0 when every check passed, 1 when one failed, 77 when varnishd or nginx is not installed
-# (a skip), 2 on bad arguments or a setup that did not come up.
+# exit 0 when every check passed, 1 when one failed or varnishd or nginx is not installed (./pl test
+# installs them), 2 on bad arguments or a setup that did not come up.
 #
 # The origin is reached through a small relay made here (python3), byte for byte, which can hold
 # one URL's requests for a second (so that the concurrent requests of the coalescing check surely
@@ -38,18 +38,18 @@ VARNISHSTAT=$(command -v varnishstat || echo /usr/bin/varnishstat)
 NGINX=$(command -v nginx || echo /usr/sbin/nginx)
 for tier in "${TIERS[@]}"; do
   if [ "$tier" = varnish ] && [ ! -x "$VARNISHD" ]; then
-    echo "cache_tier: SKIP: varnishd is not installed: apt-get install varnish (Debian package varnish, 7.1 on Debian 12)"
-    exit 77
+    echo "cache_tier: FAIL: varnishd is not installed: apt-get install varnish (Debian package varnish, 7.1 on Debian 12)"
+    exit 1
   fi
   if [ "$tier" = nginx ]; then
     if [ ! -x "$NGINX" ]; then
-      echo "cache_tier: SKIP: nginx is not installed: apt-get install nginx-light (Debian package nginx-light)"
-      exit 77
+      echo "cache_tier: FAIL: nginx is not installed: apt-get install nginx-light (Debian package nginx-light)"
+      exit 1
     fi
     # Modules are in unless configure left them out; proxy (the cache) and gunzip are needed.
     if "$NGINX" -V 2>&1 | grep -q -e '--without-http_proxy_module' || ! "$NGINX" -V 2>&1 | grep -q -e '--with-http_gunzip_module'; then
-      echo "cache_tier: SKIP: $NGINX lacks the proxy or gunzip module: apt-get install nginx-light (Debian package nginx-light)"
-      exit 77
+      echo "cache_tier: FAIL: $NGINX lacks the proxy or gunzip module: apt-get install nginx-light (Debian package nginx-light)"
+      exit 1
     fi
   fi
 done
@@ -341,12 +341,11 @@ run_tier() {
   [ $ROOT = 1 ] && chmod 711 "$D"
   local B=$D/b  # bodies
   # How long a one-second answer may stay fresh, and so how long to wait before it must have been
-  # revalidated; and how long after a publish the cache may still show the old version: the
-  # lifetime plus pl-server's own 250 ms map-row refresh. nginx counts lifetimes in whole seconds,
-  # so its max-age=1 lasts until the end of the next second: up to 2 s.
+  # revalidated. nginx counts lifetimes in whole seconds, so its max-age=1 lasts until the end of the
+  # next second: up to 2 s.
   case $TIER in
-    varnish) EXPIRE=1.2 FRESH=2.0 ;;
-    nginx) EXPIRE=2.2 FRESH=2.5 ;;
+    varnish) EXPIRE=1.2 ;;
+    nginx) EXPIRE=2.2 ;;
   esac
   start_origin
   case $TIER in
@@ -521,10 +520,13 @@ for t in json.load(open(sys.argv[1]))["tiles"]:
   check $([ "$wcodes" = "201 200 422 200" ] && [ "$nw" = 4 ] && echo 0 || echo 1) \
     "writes pass: POST version, PUT tile, PUT 60 MiB, DELETE tile -> $wcodes, origin requests: $nw" "want 201 200 422 200 and 4"
 
-  # 5. Freshness: a publish on the store shows through the cache within 2 s.
+  # 5. Freshness: a publish on the store shows through the cache. What bounds how stale the cache may
+  #    be is the lifetime the map answer carries through it (max-age=1), checked here; the wait for
+  #    version 2 is a hang guard, not a time bound, and the seconds it took are printed.
   get /v1/maps/town "$B/fresh.0"
-  local was
+  local was lifetime
   was=$(json_field "$B/fresh.0" current_version)
+  lifetime=$(grep -i '^cache-control:' "$B/fresh.0.h" | grep -o 'max-age=[0-9]*' | head -1)
   "$BIN/pl-map" publish --db "$D/maps.sqlite" --map town --version 2 >>"$D/pl-map.log" 2>&1 || fail "pl-map publish of version 2 failed"
   t0=$(now)
   local seen= took
@@ -532,14 +534,12 @@ for t in json.load(open(sys.argv[1]))["tiles"]:
     get /v1/maps/town "$B/fresh.1"
     took=$(elapsed "$t0" "$(now)")
     [ "$(json_field "$B/fresh.1" current_version)" = 2 ] && { seen=1; break; }
-    le "$took" 4 || break
+    le "$took" 60 || break
     sleep 0.05
   done
-  if [ -n "$seen" ] && le "$took" "$FRESH"; then
-    ok "freshness: current_version $was -> 2 through the cache ${took}s after pl-map publish (at most $FRESH s)"
-  else
-    fail "freshness: current_version 2 ${seen:+seen only }${took}s after pl-map publish${seen:- (not yet)} -- want within $FRESH s"
-  fi
+  check $([ -n "$seen" ] && [ "$lifetime" = max-age=1 ] && echo 0 || echo 1) \
+    "freshness: the map answer lives ${lifetime:-?} through the cache; current_version $was -> 2 ${took}s after pl-map publish" \
+    "want max-age=1 and version 2 served after the publish"
 
   # 6. Keys and encodings: other ROI queries are other objects; gzip or not, the same JSON.
   local qa="/v1/maps/town/roi?x=10&y=10&radius=5" qb="/v1/maps/town/roi?x=50&y=30&radius=5"
@@ -633,10 +633,10 @@ for t in json.load(open(sys.argv[1]))["tiles"]:
     took=$(elapsed "$t0" "$(now)")
     seq+="$CODE/$XC "
     [ "$CODE" = 200 ] && { back=1; break; }
-    le "$took" 8 || break
+    le "$took" 60 || break  # a hang guard, not a time bound
     sleep 0.2
   done
-  check $([ -n "$back" ] && echo 0 || echo 1) "origin back: a new ROI query answered ${took}s after (answers: $seq)" "want within 8 s"
+  check $([ -n "$back" ] && echo 0 || echo 1) "origin back: a new ROI query answered ${took}s after (answers: $seq)" "want an answer once the origin is back"
 }
 
 for tier in "${TIERS[@]}"; do

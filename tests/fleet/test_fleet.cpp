@@ -427,8 +427,8 @@ TEST(Fleet, SignedVersionsAreUsedOnlyOnceTheirManifestVerifies) {
 // HTTPS as vehicles speak it: a CA made here (openssl), deploy/nginx/pointlocalization.conf
 // terminating TLS in a real nginx on loopback in front of the pl-server.
 TEST(Fleet, HttpsThroughTheTlsSite) {
-  if (access("/usr/sbin/nginx", X_OK) != 0 || pl::test::run("command -v openssl").exit_code != 0)
-    GTEST_SKIP() << "needs nginx and openssl: apt-get install nginx-light openssl (./pl test installs them)";
+  ASSERT_TRUE(access("/usr/sbin/nginx", X_OK) == 0 && pl::test::run("command -v openssl").exit_code == 0)
+      << "needs nginx and openssl: apt-get install nginx-light openssl (./pl test installs them)";
   FleetMap& f = fleet_map();
   ServerProcess server(f.db);
   TempDir d;

@@ -254,8 +254,9 @@ try:
     check(st is not None and st[0] == 1 and st[2].get('online') == 'false', 'diagnostics: offline during the outage (%s)' % (st,))
     fetched_before = int(st[2].get('fetched', '0')) if st else 0
     n_before = len(got['pose'])
-    time.sleep(2.0)
-    check(len(got['pose']) > n_before or len(got['pose']) >= scans - 5, 'still localizing during the outage')
+    # The next pose comes from the tiles the node holds (the wait is a hang guard, not a time bound).
+    check(wait_for(lambda: len(got['pose']) > n_before or len(got['pose']) >= scans - 5, 120, 'a pose during the outage'),
+          'still localizing during the outage')
     server = start_server('server3.log')
     player.join()
     wait_for(lambda: (tiles_status() or (0, '', {}))[2].get('online') == 'true', 60, 'the node to be online again')

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -129,6 +130,67 @@ TEST(SignedManifest, SignedByTheFleetKeyVerifiesAndAnyChangedByteDoesNot) {
   const std::string seed(32, '\x07');
   EXPECT_EQ(SigningKey::from_seed(seed).public_key(), SigningKey::from_seed(seed).public_key());
   EXPECT_THROW(SigningKey::from_seed("short"), pl::Error);
+}
+
+// RFC 8032 section 7.1's Ed25519 test vectors 1-3: our keys, signatures and verification against
+// the standard's own bytes, not only against our own output.
+TEST(SignedManifest, Rfc8032TestVectors) {
+  struct Vector {
+    const char *seed, *public_key, *message, *signature;
+  };
+  const Vector vectors[] = {
+      {"9d61b19deffd5a60ba844af492ec2cc44449c5697b326919703bac031cae7f60",
+       "d75a980182b10ab7d54bfed3c964073a0ee172f3daa62325af021a68f707511a", "",
+       "e5564300c360ac729086e2cc806e828a84877f1eb8e5d974d873e06522490155"
+       "5fb8821590a33bacc61e39701cf9b46bd25bf5f0595bbe24655141438e7a100b"},
+      {"4ccd089b28ff96da9db6c346ec114e0f5b8a319f35aba624da8cf6ed4fb8a6fb",
+       "3d4017c3e843895a92b70aa74d1b7ebc9c982ccf2ec4968cc0cd55f12af4660c", "72",
+       "92a009a9f0d4cab8720e820b5f642540a2b27b5416503f8fb3762223ebdb69da"
+       "085ac1e43e15996e458f3613d0f11d8c387b2eaeb4302aeeb00d291612bb0c00"},
+      {"c5aa8df43f9f837bedb7442f31dcb7b166d38535076f094b85ce3a2e0b4458f7",
+       "fc51cd8e6218a1a38da47ed00230f0580816ed13ba3303ac5deb911548908025", "af82",
+       "6291d657deec24024827e69c3abe01a30ce548a284743a445e3680d7db5ac3ac"
+       "18ff9b538d16f290ae67f760984dc6594a7c15e9716ed28dc027beceea1ec40a"},
+  };
+  for (const Vector& v : vectors) {
+    const std::string public_key = pl::test::from_hex(v.public_key), message = pl::test::from_hex(v.message),
+                      signature = pl::test::from_hex(v.signature);
+    const SigningKey key = SigningKey::from_seed(pl::test::from_hex(v.seed));
+    EXPECT_EQ(key.public_key(), public_key) << v.seed;
+    EXPECT_EQ(key.sign(message), signature) << v.seed;
+    EXPECT_TRUE(pl::signing::verify(public_key, message, signature)) << v.seed;
+    std::string flipped = signature;
+    flipped[63] = static_cast<char>(flipped[63] ^ 0x01);
+    EXPECT_FALSE(pl::signing::verify(public_key, message, flipped)) << v.seed;
+  }
+}
+
+// openssl's own pkeyutl verifies what we sign, and we verify what it signs, over the same files.
+TEST(SignedManifest, OpensslVerifiesOurSignaturesAndWeVerifyItsOwn) {
+  pl::test::TempDir dir;
+  const SigningKey ours = SigningKey::generate();
+  ours.save(dir / "ours.key");
+  pl::signing::save_public_key(ours.public_key(), dir / "ours.pub");
+  const std::string text = pl::signing::manifest_text(sample());
+  pl::test::write_file(dir / "manifest.txt", text);
+  std::ofstream(dir / "ours.sig", std::ios::binary) << ours.sign(text);
+  const std::string verify =
+      "openssl pkeyutl -verify -pubin -inkey " + dir / "ours.pub" + " -rawin -in " + dir / "manifest.txt" + " -sigfile ";
+  auto r = pl::test::run(verify + dir / "ours.sig");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("Signature Verified Successfully"), std::string::npos) << r.output;
+  std::ofstream(dir / "other.sig", std::ios::binary) << ours.sign(text + " ");
+  EXPECT_NE(pl::test::run(verify + dir / "other.sig").exit_code, 0) << "openssl took a signature of other bytes";
+
+  ASSERT_EQ(pl::test::run("openssl genpkey -algorithm ed25519 -out " + dir / "theirs.key").exit_code, 0);
+  r = pl::test::run("openssl pkeyutl -sign -inkey " + dir / "theirs.key" + " -rawin -in " + dir / "manifest.txt" + " -out " +
+                    dir / "theirs.sig");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string theirs = SigningKey::load(dir / "theirs.key").public_key(),
+                    signature = pl::test::read_file(dir / "theirs.sig");
+  ASSERT_EQ(signature.size(), 64u);
+  EXPECT_TRUE(pl::signing::verify(theirs, text, signature));
+  EXPECT_FALSE(pl::signing::verify(theirs, text + " ", signature));
 }
 
 TEST(SignedManifest, KeyFilesArePemThatOpensslWritesAndReads) {

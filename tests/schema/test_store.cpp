@@ -1,6 +1,9 @@
 // The map store on a real SQLite file: migrations, maps, versions, tiles, tokens, the upload log,
 // change reports, transactions and integrity.
+#include <grp.h>
 #include <gtest/gtest.h>
+#include <pwd.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -286,11 +289,40 @@ TEST_F(SqliteStoreTest, OpenWithoutCreateNeedsAnExistingFile) {
   EXPECT_FALSE(std::filesystem::exists(path));
 }
 
+// Runs `f` as an unprivileged user and returns what it returned: as root (CI is), in a child that
+// drops to the user nobody first, since root ignores file permissions.
+std::string unprivileged(const std::function<std::string()>& f) {
+  if (geteuid() != 0) return f();
+  const passwd* nobody = getpwnam("nobody");
+  if (!nobody) return "no user 'nobody' to drop to";
+  int fds[2];
+  if (pipe(fds) != 0) return "pipe() failed";
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(fds[0]);
+    const bool dropped = setgroups(0, nullptr) == 0 && setgid(nobody->pw_gid) == 0 && setuid(nobody->pw_uid) == 0;
+    const std::string out = dropped ? f() : "cannot drop root's privileges";
+    const ssize_t written = write(fds[1], out.data(), out.size());
+    _exit(written == static_cast<ssize_t>(out.size()) ? 0 : 1);  // no destructors: the parent owns the files
+  }
+  close(fds[1]);
+  std::string out;
+  char buf[4096];
+  ssize_t n;
+  while ((n = read(fds[0], buf, sizeof buf)) > 0) out.append(buf, static_cast<std::size_t>(n));
+  close(fds[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return out;
+}
+
 TEST_F(SqliteStoreTest, RefusesAReadOnlyFile) {
-  if (geteuid() == 0) GTEST_SKIP() << "root ignores file permissions";
   { Store s = Store::open(path); }
-  std::filesystem::permissions(path, std::filesystem::perms::owner_read | std::filesystem::perms::group_read);
-  std::string msg = error_of([&] { Store::open(path); });
+  namespace fs = std::filesystem;
+  fs::permissions(dir.path(), fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec | fs::perms::others_read |
+                                  fs::perms::others_exec);
+  fs::permissions(path, fs::perms::owner_read | fs::perms::group_read | fs::perms::others_read);
+  std::string msg = unprivileged([&] { return error_of([&] { Store::open(path); }); });
   EXPECT_TRUE(contains(msg, path)) << msg;
   EXPECT_TRUE(contains(msg, "read-only")) << msg;
 }

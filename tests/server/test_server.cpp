@@ -4,11 +4,13 @@
 #include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <set>
@@ -283,30 +285,49 @@ TEST(Server, SecondPublishFromAnOutdatedParentIs409) {
 
 TEST(Server, KillDuringUploadKeepsThePreviousVersion) {
   MapFixture f;
+  std::mutex acked_mutex;
+  std::vector<std::pair<pl::TileKey, std::string>> acked;  // the tiles answered 200, with their hashes
   {
     ServerProcess server(f.db, f.token_args());
     HttpClient http(server.url());
     ASSERT_EQ(http.request("POST", "/v1/maps/town/versions", "", bearer(kUploadToken)).status, 201);
     std::atomic<bool> stop{false};
+    std::atomic<int> answered{0};
     std::thread uploader([&] {
       HttpClient up(server.url(), 2.0);
-      for (int k = 0; k < 100000 && !stop; ++k) {
+      for (int k = 0; k < 2500 && !stop; ++k) {  // each PUT a tile of its own
+        const int tx = k % 50, ty = k / 50;
         pl::TileCloud t;
-        for (int i = 0; i < 400; ++i) t.points.emplace_back(200.0 * 0 + 20.0 * (k % 50) + 0.04 * i + 0.1, 0.1 + 0.04 * i, 0.01 * k);
+        for (int i = 0; i < 400; ++i) t.points.emplace_back(20.0 * tx + 0.04 * i + 0.1, 20.0 * ty + 0.1 + 0.04 * i, 0.01 * k);
+        const std::string bytes = pl::encode_tile(t);
         try {
-          up.request("PUT", "/v1/maps/town/versions/2/tiles/" + std::to_string(k % 50) + "/0", pl::encode_tile(t), bearer(kUploadToken));
+          const auto r = up.request("PUT", "/v1/maps/town/versions/2/tiles/" + std::to_string(tx) + "/" + std::to_string(ty),
+                                    bytes, bearer(kUploadToken));
+          if (r.status != 200) return;
+          std::lock_guard<std::mutex> lock(acked_mutex);
+          acked.emplace_back(pl::TileKey{tx, ty}, pl::store::content_hash(bytes));
+          ++answered;
         } catch (...) {
           return;  // the server is gone
         }
       }
     });
-    std::this_thread::sleep_for(std::chrono::milliseconds(700));
+    // Killed mid-upload: once some tiles are answered, with more on their way.
+    EXPECT_TRUE(pl::test::eventually([&] { return answered >= 5; }, 120.0))
+        << "no tile was answered (a hang guard, not a time bound)";
     server.kill9();
     stop = true;
     uploader.join();
   }
   pl::store::Store store = pl::store::Store::open(f.db, false);
   EXPECT_TRUE(store.integrity_ok());
+  // Every tile the server answered was in the store before the kill, with the bytes sent.
+  ASSERT_GE(acked.size(), 5u);
+  for (const auto& [key, hash] : acked) {
+    const auto stored = store.find_tile("town", 2, key);
+    ASSERT_TRUE(stored) << "tile " << key.tx << "/" << key.ty << " was answered 200 and is not in the store";
+    EXPECT_EQ(stored->hash, hash);
+  }
   auto m = store.find_map("town");
   ASSERT_TRUE(m && m->current);
   EXPECT_EQ(*m->current, 1);
@@ -486,6 +507,7 @@ TEST(Server, HealthReadinessMetricsAndAccessLog) {
   EXPECT_NE(metrics.body.find("pl_requests_total{route=\"/v1/maps/{map}\",status=\"404\"} 1"), std::string::npos) << metrics.body;
   EXPECT_NE(metrics.body.find("pl_request_duration_seconds_bucket{le=\"+Inf\"}"), std::string::npos);
   EXPECT_NE(metrics.body.find("pl_open_connections 1"), std::string::npos);
+  EXPECT_NE(metrics.body.find("\npl_requests_in_progress 1\n"), std::string::npos) << metrics.body;  // the /metrics request
   EXPECT_NE(metrics.body.find("pl_database_bytes "), std::string::npos);
   EXPECT_EQ(server.terminate(), 0);
   const std::string& log = server.output();
@@ -497,41 +519,56 @@ TEST(Server, HealthReadinessMetricsAndAccessLog) {
 TEST(Server, GracefulStopFinishesTheRequestInFlight) {
   MapFixture f;
   ServerProcess server(f.db, f.token_args());
-  // An idle kept-alive connection does not hold the stop up.
-  HttpClient idle(server.url());
-  ASSERT_EQ(idle.get("/healthz").status, 200);
-  // A request half sent when SIGTERM arrives still gets its answer.
-  int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<std::uint16_t>(server.port()));
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ASSERT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+  const auto connected = [&] {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<std::uint16_t>(server.port()));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    EXPECT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+    const timeval hang_guard{120, 0};  // a read that never ends fails the test instead of hanging it
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &hang_guard, sizeof hang_guard);
+    return fd;
+  };
+  // A kept-alive connection, answered and now idle.
+  const int idle = connected();
+  const std::string healthz = "GET /healthz HTTP/1.1\r\nHost: t\r\n\r\n";
+  ASSERT_EQ(write(idle, healthz.data(), healthz.size()), static_cast<ssize_t>(healthz.size()));
+  char buf[4096];
+  ssize_t n = read(idle, buf, sizeof(buf));
+  ASSERT_GT(n, 0);
+  ASSERT_EQ(std::string(buf, static_cast<std::size_t>(n)).rfind("HTTP/1.1 200", 0), 0u);
+  // A request half sent when SIGTERM arrives.
+  const int fd = connected();
   std::string body = R"({"note": "in flight"})";
   std::string head = "POST /v1/maps/town/versions HTTP/1.1\r\nHost: t\r\nAuthorization: Bearer " + kUploadToken +
                      "\r\nContent-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body.substr(0, 5);
   ASSERT_EQ(write(fd, head.data(), head.size()), static_cast<ssize_t>(head.size()));
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  auto t0 = std::chrono::steady_clock::now();
+  // SIGTERM once the server has begun that request (its header read): two in progress with /metrics.
+  HttpClient metrics(server.url());
+  ASSERT_TRUE(pl::test::eventually(
+      [&] { return metrics.get("/metrics").body.find("\npl_requests_in_progress 2\n") != std::string::npos; }, 120.0))
+      << "the server never began the request (a hang guard, not a time bound)";
   std::thread stopper([&] { EXPECT_EQ(server.terminate(), 0); });
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  // The stop lets the idle connection go at once, while the request in flight is still unanswered:
+  // an idle connection does not hold the stop up.
+  EXPECT_EQ(read(idle, buf, sizeof(buf)), 0) << "the idle connection was not closed by the stop";
+  close(idle);
   std::string rest = body.substr(5);
-  ASSERT_EQ(write(fd, rest.data(), rest.size()), static_cast<ssize_t>(rest.size()));
+  EXPECT_EQ(write(fd, rest.data(), rest.size()), static_cast<ssize_t>(rest.size()));  // not ASSERT: the stopper is to be joined
   std::string answer;
-  char buf[4096];
-  ssize_t n;
   while ((n = read(fd, buf, sizeof(buf))) > 0) answer.append(buf, static_cast<std::size_t>(n));
   close(fd);
   stopper.join();
   EXPECT_EQ(answer.rfind("HTTP/1.1 201", 0), 0u) << answer;
   EXPECT_NE(answer.find("Connection: close"), std::string::npos) << answer;
-  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0);
   pl::store::Store store = pl::store::Store::open(f.db, false);
   EXPECT_TRUE(store.find_version("town", 2).has_value());
 }
 
 TEST(Server, ServedTilesDecodeWithDebiansDracoDecoder) {
-  if (!pl::file_exists("/usr/bin/draco_decoder")) GTEST_SKIP() << "draco_decoder (package draco) is not installed";
+  ASSERT_TRUE(pl::file_exists("/usr/bin/draco_decoder"))
+      << "draco_decoder is missing: apt-get install draco (./pl test installs it)";
   MapFixture f;
   ServerProcess server(f.db);
   HttpClient http(server.url());

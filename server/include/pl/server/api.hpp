@@ -103,6 +103,7 @@ class Metrics {
  public:
   void observe(const std::string& route, int status, double seconds, std::size_t bytes);
   std::atomic<long> open_connections{0};
+  std::atomic<long> requests_in_progress{0};  // header read, not yet answered (this one included)
   std::string render(std::int64_t database_bytes) const;
 
  private:
