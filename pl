@@ -78,45 +78,91 @@ warn_disk() {
   fi
 }
 
+# phase NAME COMMAND...: runs one phase of ./pl test and keeps its wall time for the summary.
+PHASES=()
+phase() {
+  local name=$1 t0=$SECONDS rc=0
+  shift
+  say "$name"
+  "$@" || rc=$?
+  PHASES+=("$(printf '%-34s %5d s' "$name" $((SECONDS - t0)))")
+  return $rc
+}
+
+# The tests' own results, from ctest's JUnit files: "N passed, N failed, N skipped", then the skipped
+# tests (what the machine lacks: an IPv6 loopback, /dev/full; never a dependency ./pl test installs)
+# and the 15 slowest tests.
+test_summary() {
+  python3 tests/summary.py "$@"
+}
+
 cmd_test() {
-  ensure_packages
+  local t_all=$SECONDS rc=0
+  phase "installing the packages" ensure_packages deploy/debian-packages.txt deploy/fuzz-packages.txt
   # Measured from a clean clone (2026-12-06): build/asan 1.4 GB after its tests, build/tsan 0.25,
   # build/fuzz 0.36: 2.0 GB in all (some 5 GB before their debug sections were compressed).
   warn_disk 3 "./pl test (build/asan, build/tsan, build/fuzz)"
-  build build/asan -DCMAKE_BUILD_TYPE=Debug -DPL_SANITIZE=ON -DPL_BUILD_BENCH=OFF
-  say "running the tests"
+  phase "building build/asan (ASan+UBSan)" build build/asan -DCMAKE_BUILD_TYPE=Debug -DPL_SANITIZE=ON -DPL_BUILD_BENCH=OFF -DPL_REQUIRE_ROS1=ON
+  # The ThreadSanitizer and fuzz builds run beside the tests, at low priority: they take the CPU the
+  # tests leave idle (servers starting, waits on sockets) and give it back at once when a test wants it.
+  mkdir -p build
+  (renice -n 19 -p $BASHPID >/dev/null && build_tsan && build_fuzz_tree) >build/background-builds.log 2>&1 &
+  local builds=$!
+  trap "kill $builds 2>/dev/null || true" EXIT
   # Leak checking stays on; UBSan reports fail the test (-fno-sanitize-recover at build time).
   export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}
   export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}
   export PL_NO_PROGRESS=1
-  ctest --test-dir build/asan --output-on-failure -j "$JOBS"
-  test_tsan
-  say "fuzzing every input parser for 20 s each"
-  build_fuzz
-  bash tests/fuzz/run.sh build/fuzz/bin 20
+  rm -rf build/test-results && mkdir -p build/test-results
+  # Twice as many tests as cores: many of them wait on servers and sockets more than they compute.
+  phase "testing build/asan" ctest --test-dir build/asan --output-on-failure --no-tests=error -j $((2 * JOBS)) \
+    --output-junit "$ROOT/build/test-results/asan.xml" || rc=1
+  phase "finishing the TSan and fuzz builds" wait_for_builds $builds || rc=1
+  phase "testing build/tsan (ThreadSanitizer)" test_tsan || rc=1
+  phase "fuzzing each target 20 s" bash tests/fuzz/run.sh build/fuzz/bin 20 || rc=1
+  PHASES+=("$(printf '%-34s %5d s' "all" $((SECONDS - t_all)))")
+  echo
+  printf '%s\n' "${PHASES[@]}"
+  test_summary build/test-results/asan.xml build/test-results/tsan.xml || rc=1
+  return $rc
+}
+
+wait_for_builds() {
+  if ! wait "$1"; then
+    tail -n 40 build/background-builds.log >&2
+    echo "the ThreadSanitizer or fuzz build failed: build/background-builds.log" >&2
+    return 1
+  fi
 }
 
 # The threaded parts under ThreadSanitizer: the tile client (its fetch thread against a real
 # pl-server), the vehicle localizer (input, worker and reader threads; moving to a new map version
-# mid-drive with a second tile client) and the server (its
-# io_context threads, in the pl-server processes the tests start; the viewer's event streams). A
-# report fails the test.
-test_tsan() {
+# mid-drive with a second tile client) and the server (its io_context threads, in the pl-server
+# processes the tests start; the viewer's event streams). A report fails the test. pl-map, which the
+# tests only run to make stores, comes from build/asan.
+build_tsan() {
   local dir=build/tsan
   if [[ ! -f "$dir/build.ninja" ]]; then
     say "configuring $dir"
-    cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DPL_TSAN=ON -DPL_BUILD_BENCH=OFF >/dev/null
+    cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DPL_TSAN=ON -DPL_BUILD_BENCH=OFF -DPL_TOOLS_DIR="$ROOT/build/asan/bin" >/dev/null
   fi
   say "building the threaded tests in $dir (ThreadSanitizer)"
-  cmake --build "$dir" -j "$JOBS" --target test_client test_vehicle_localizer test_map_swap test_reports test_server test_viewer_routes pl-server pl-map
-  say "running them under ThreadSanitizer"
+  cmake --build "$dir" -j "$JOBS" --target test_client test_vehicle_localizer test_map_swap test_reports test_server test_viewer_routes pl-server
+}
+
+test_tsan() {
   TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:exitcode=66:second_deadlock_stack=1} \
-    ctest --test-dir "$dir" --output-on-failure -j "$JOBS" -R '^(TileClient|TileCache|VehicleLocalizer|MapSwap|Server|ViewerRoutes|Reports)\.'
+    ctest --test-dir build/tsan --output-on-failure --no-tests=error -j "$JOBS" --output-junit "$ROOT/build/test-results/tsan.xml" \
+    -R '^(TileClient|TileCache|VehicleLocalizer|MapSwap|Server|ViewerRoutes|Reports)\.'
+}
+
+build_fuzz_tree() {
+  build build/fuzz -DCMAKE_BUILD_TYPE=Debug -DPL_FUZZ=ON -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++
 }
 
 build_fuzz() {
   ensure_packages deploy/debian-packages.txt deploy/fuzz-packages.txt
-  build build/fuzz -DCMAKE_BUILD_TYPE=Debug -DPL_FUZZ=ON -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++
+  build_fuzz_tree
 }
 
 cmd_fuzz() {

@@ -70,10 +70,15 @@ inline std::string read_file(const std::string& path) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-// Path of a built executable (ctest sets PL_BIN; fall back to the build tree).
+// Path of a built executable: ctest sets PL_BIN (the build tree's bin/ otherwise). A tool this build
+// does not make comes from PL_TOOLS_DIR (./pl test's ThreadSanitizer build takes pl-map from build/asan).
 inline std::string tool(const std::string& name) {
   const char* bin = std::getenv("PL_BIN");
-  return std::string(bin ? bin : PL_BINARY_DIR "/bin") + "/" + name;
+  const std::string own = std::string(bin ? bin : PL_BINARY_DIR "/bin") + "/" + name;
+#ifdef PL_TOOLS_DIR
+  if (*PL_TOOLS_DIR && access(own.c_str(), X_OK) != 0) return std::string(PL_TOOLS_DIR) + "/" + name;
+#endif
+  return own;
 }
 
 struct RunResult {
