@@ -118,13 +118,24 @@ cmd_test() {
   phase "testing build/asan" ctest --test-dir build/asan --output-on-failure --no-tests=error -j $((2 * JOBS)) \
     --output-junit "$ROOT/build/test-results/asan.xml" || rc=1
   phase "finishing the TSan and fuzz builds" wait_for_builds $builds || rc=1
+  # The fuzzers (20 s of wall time each, on every core) and the ThreadSanitizer tests (mostly waiting
+  # on their servers) side by side.
+  bash tests/fuzz/run.sh build/fuzz/bin 20 >build/fuzz-run.log 2>&1 &
+  local fuzzing=$!
   phase "testing build/tsan (ThreadSanitizer)" test_tsan || rc=1
-  phase "fuzzing each target 20 s" bash tests/fuzz/run.sh build/fuzz/bin 20 || rc=1
+  phase "fuzzing each target 20 s" wait_for_fuzzing $fuzzing || rc=1
   PHASES+=("$(printf '%-34s %5d s' "all" $((SECONDS - t_all)))")
   echo
   printf '%s\n' "${PHASES[@]}"
   test_summary build/test-results/asan.xml build/test-results/tsan.xml || rc=1
   return $rc
+}
+
+wait_for_fuzzing() {
+  local status=0
+  wait "$1" || status=$?
+  cat build/fuzz-run.log
+  return $status
 }
 
 wait_for_builds() {
@@ -152,7 +163,7 @@ build_tsan() {
 
 test_tsan() {
   TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:exitcode=66:second_deadlock_stack=1} \
-    ctest --test-dir build/tsan --output-on-failure --no-tests=error -j "$JOBS" --output-junit "$ROOT/build/test-results/tsan.xml" \
+    ctest --test-dir build/tsan --output-on-failure --no-tests=error -j $((2 * JOBS)) --output-junit "$ROOT/build/test-results/tsan.xml" \
     -R '^(TileClient|TileCache|VehicleLocalizer|MapSwap|Server|ViewerRoutes|Reports)\.'
 }
 
