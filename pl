@@ -47,16 +47,17 @@ ensure_packages() {
   fi
 }
 
-# build DIR CMAKE_ARGS...: configure once, then build incrementally.
+# build DIR CMAKE_ARGS... [-- TARGET...]: configure (again, cheaply, so that the arguments hold in an
+# existing tree), then build incrementally.
 build() {
-  local dir=$1
+  local dir=$1 args=() targets=()
   shift
-  if [[ ! -f "$dir/build.ninja" ]]; then
-    say "configuring $dir"
-    cmake -S . -B "$dir" -G Ninja "$@" >/dev/null
-  fi
+  while [[ $# -gt 0 && "$1" != "--" ]]; do args+=("$1"); shift; done
+  [[ "${1:-}" == "--" ]] && shift && targets=(--target "$@")
+  [[ -f "$dir/build.ninja" ]] || say "configuring $dir"
+  cmake -S . -B "$dir" -G Ninja "${args[@]}" >/dev/null
   say "building $dir"
-  cmake --build "$dir" -j "$JOBS"
+  cmake --build "$dir" -j "$JOBS" "${targets[@]}"
 }
 
 build_release() { build build/release -DCMAKE_BUILD_TYPE=Release; }
@@ -152,13 +153,8 @@ wait_for_builds() {
 # processes the tests start; the viewer's event streams). A report fails the test. pl-map, which the
 # tests only run to make stores, comes from build/asan.
 build_tsan() {
-  local dir=build/tsan
-  if [[ ! -f "$dir/build.ninja" ]]; then
-    say "configuring $dir"
-    cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DPL_TSAN=ON -DPL_BUILD_BENCH=OFF -DPL_TOOLS_DIR="$ROOT/build/asan/bin" >/dev/null
-  fi
-  say "building the threaded tests in $dir (ThreadSanitizer)"
-  cmake --build "$dir" -j "$JOBS" --target test_client test_vehicle_localizer test_map_swap test_reports test_server test_viewer_routes pl-server
+  build build/tsan -DCMAKE_BUILD_TYPE=Debug -DPL_TSAN=ON -DPL_BUILD_BENCH=OFF -DPL_TOOLS_DIR="$ROOT/build/asan/bin" \
+    -- test_client test_vehicle_localizer test_map_swap test_reports test_server test_viewer_routes pl-server
 }
 
 test_tsan() {
