@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # PointLocalization: set-up, build, demo, tests and benchmarks in one command.
 #   ./pl demo    install what is missing, build Release, run the main job and print its result
-#   ./pl test    install what is missing, build Debug with ASan+UBSan, run every test, the threaded
-#                ones again under ThreadSanitizer, fuzz each target 20 s
+#   ./pl test    install what is missing, build Debug with ASan+UBSan (clang), run every test, the
+#                threaded ones again under ThreadSanitizer, fuzz each target 20 s
 #   ./pl bench   install what is missing, build Release, run every benchmark in bench/
 #   ./pl build   install what is missing and build Release only
-#   ./pl fuzz [TARGET...] [--seconds N]   build the libFuzzer targets (clang) and run each N s (60)
+#   ./pl fuzz [TARGET...] [--seconds N]   build the libFuzzer targets (build/asan) and run each N s (60)
 set -euo pipefail
 
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -100,14 +100,13 @@ test_summary() {
 cmd_test() {
   local t_all=$SECONDS rc=0
   phase "installing the packages" ensure_packages deploy/debian-packages.txt deploy/fuzz-packages.txt
-  # Measured from a clean clone (2026-12-06): build/asan 1.4 GB after its tests, build/tsan 0.25,
-  # build/fuzz 0.36: 2.0 GB in all (some 5 GB before their debug sections were compressed).
-  warn_disk 3 "./pl test (build/asan, build/tsan, build/fuzz)"
-  phase "building build/asan (ASan+UBSan)" build build/asan -DCMAKE_BUILD_TYPE=Debug -DPL_SANITIZE=ON -DPL_BUILD_BENCH=OFF -DPL_REQUIRE_ROS1=ON
-  # The ThreadSanitizer and fuzz builds run beside the tests, at low priority: they take the CPU the
-  # tests leave idle (servers starting, waits on sockets) and give it back at once when a test wants it.
+  # Measured from a clean clone (2026-12-06): build/asan 1.4 GB after its tests, build/tsan 0.25.
+  warn_disk 3 "./pl test (build/asan, build/tsan)"
+  phase "building build/asan (ASan+UBSan)" build_asan
+  # The ThreadSanitizer build runs beside the tests, at low priority: it takes the CPU the tests leave
+  # idle (servers starting, waits on sockets) and gives it back at once when a test wants it.
   mkdir -p build
-  (renice -n 19 -p $BASHPID >/dev/null && build_tsan && build_fuzz_tree) >build/background-builds.log 2>&1 &
+  (renice -n 19 -p $BASHPID >/dev/null && build_tsan) >build/background-builds.log 2>&1 &
   local builds=$!
   trap "kill $builds 2>/dev/null || true" EXIT
   # Leak checking stays on; UBSan reports fail the test (-fno-sanitize-recover at build time).
@@ -118,10 +117,10 @@ cmd_test() {
   # Twice as many tests as cores: many of them wait on servers and sockets more than they compute.
   phase "testing build/asan" ctest --test-dir build/asan --output-on-failure --no-tests=error -j $((2 * JOBS)) \
     --output-junit "$ROOT/build/test-results/asan.xml" || rc=1
-  phase "finishing the TSan and fuzz builds" wait_for_builds $builds || rc=1
+  phase "finishing the TSan build" wait_for_builds $builds || rc=1
   # The fuzzers (20 s of wall time each, on every core) and the ThreadSanitizer tests (mostly waiting
   # on their servers) side by side.
-  bash tests/fuzz/run.sh build/fuzz/bin 20 >build/fuzz-run.log 2>&1 &
+  bash tests/fuzz/run.sh build/asan/bin 20 >build/fuzz-run.log 2>&1 &
   local fuzzing=$!
   phase "testing build/tsan (ThreadSanitizer)" test_tsan || rc=1
   phase "fuzzing each target 20 s" wait_for_fuzzing $fuzzing || rc=1
@@ -142,7 +141,7 @@ wait_for_fuzzing() {
 wait_for_builds() {
   if ! wait "$1"; then
     tail -n 40 build/background-builds.log >&2
-    echo "the ThreadSanitizer or fuzz build failed: build/background-builds.log" >&2
+    echo "the ThreadSanitizer build failed: build/background-builds.log" >&2
     return 1
   fi
 }
@@ -163,13 +162,16 @@ test_tsan() {
     -R '^(TileClient|TileCache|VehicleLocalizer|MapSwap|Server|ViewerRoutes|Reports)\.'
 }
 
-build_fuzz_tree() {
-  build build/fuzz -DCMAKE_BUILD_TYPE=Debug -DPL_FUZZ=ON -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++
-}
-
-build_fuzz() {
-  ensure_packages deploy/debian-packages.txt deploy/fuzz-packages.txt
-  build_fuzz_tree
+# build/asan: the tests' build and the fuzzers' (clang: libFuzzer). A tree configured with another
+# compiler (gcc, before 2026-12-07) is made again: CMake cannot change a tree's compiler.
+ASAN_ARGS=(-DCMAKE_BUILD_TYPE=Debug -DPL_SANITIZE=ON -DPL_BUILD_BENCH=OFF -DPL_REQUIRE_ROS1=ON
+           -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++)
+build_asan() {
+  if [[ -f build/asan/CMakeCache.txt ]] && ! grep -q '^CMAKE_CXX_COMPILER:[A-Z]*=.*clang++' build/asan/CMakeCache.txt; then
+    say "build/asan was configured with another compiler: configuring it again with clang"
+    rm -rf build/asan
+  fi
+  build build/asan "${ASAN_ARGS[@]}" "$@"
 }
 
 cmd_fuzz() {
@@ -184,8 +186,9 @@ cmd_fuzz() {
       *) targets+=("$1"); shift ;;
     esac
   done
-  build_fuzz
-  bash tests/fuzz/run.sh build/fuzz/bin "$seconds" "${targets[@]}"
+  ensure_packages deploy/debian-packages.txt deploy/fuzz-packages.txt
+  build_asan -- fuzzers
+  bash tests/fuzz/run.sh build/asan/bin "$seconds" "${targets[@]}"
 }
 
 cmd_bench() {

@@ -94,6 +94,7 @@ Neighbour PointMap::nearest(const Eigen::Vector3f& q, float max_dist2, CellBlock
   for (int a = 0; a < 3; ++a) {
     const float u = q[a] * inv;
     const float f = std::floor(u);
+    if (!(std::abs(f) < 0x1p62f)) return {};  // not a number, or beyond any cell key: no neighbour
     base[a] = static_cast<std::int64_t>(f);
     const float frac = u - f;
     const bool up = !(frac < 0.5f);  // one flag for the step and the block's key (a NaN goes up in both)

@@ -267,7 +267,9 @@ TEST(Integrity, ScansNotFusedTakeTheHeightOfTheGroundUnderThePrediction) {
     EXPECT_FALSE(r.fused_lidar);
     EXPECT_NE(r.basin, pl::client::Basin::Search);
   }
-  EXPECT_GE(vertical, 2);
+  // At least one scan goes this way (two of ten with gcc's arithmetic, one with clang's: on this
+  // ramp the fourth scan is either fused or refused, searched for, and the rest follow).
+  EXPECT_GE(vertical, 1);
 }
 
 // A scan not fused learns nothing of where along the street the vehicle is: its bound is never below

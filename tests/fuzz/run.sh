@@ -65,6 +65,6 @@ for t in "${targets[@]}"; do
   printf '%-16s %12s %9s %7s %7s %8s  %s\n' "$t" "${execs:-?}" "${speed:-?}" "${cov:-?}" "${ft:-?}" "${corp:-?}" "$result"
 done
 if [[ $failed -ne 0 ]]; then
-  echo "fuzzing found problems: reproduce one with build/fuzz/bin/fuzz_TARGET FILE; once fixed, add the input to tests/fuzz/regressions/TARGET/" >&2
+  echo "fuzzing found problems: reproduce one with $BIN/fuzz_TARGET FILE; once fixed, add the input to tests/fuzz/regressions/TARGET/" >&2
 fi
 exit $failed

@@ -6,7 +6,7 @@
 namespace pl::sim {
 
 Traffic::Traffic(const SimTrajectory& path, double t0, double t1, const TrafficConfig& cfg)
-    : path_(path), t0_(t0), t1_(t1), s_min_(path.distance_at(t0)), s_max_(path.distance_at(t1)) {
+    : path_(path), t0_(t0), s_min_(path.distance_at(t0)), s_max_(path.distance_at(t1)) {
   std::mt19937_64 rng(cfg.seed * 0xBF58476D1CE4E5B9ull + 0x7AFF1C);
   auto u = [&rng](double a, double b) { return std::uniform_real_distribution<double>(a, b)(rng); };
   int leads = 0;

@@ -41,7 +41,7 @@ class Traffic {
   };
   bool place(const Agent& a, double t, Eigen::Vector2f& centre, float& yaw, float& base) const;
   const SimTrajectory& path_;
-  double t0_, t1_, s_min_, s_max_;
+  double t0_, s_min_, s_max_;
   std::vector<Agent> agents_;
 };
 
