@@ -19,11 +19,11 @@ usage() {
   exit "${1:-0}"
 }
 
-# Installs the Debian packages listed in the given files (default deploy/debian-packages.txt) that
+# Installs the Debian packages listed in the given files (default deploy/build-packages.txt) that
 # are not installed yet.
 ensure_packages() {
   local missing=() pkg list
-  for list in "${@:-deploy/debian-packages.txt}"; do
+  for list in "${@:-deploy/build-packages.txt}"; do
     while read -r pkg; do
       [[ -z "$pkg" || "$pkg" == \#* ]] && continue
       # "pkg cmd=NAME": satisfied by any NAME on the PATH (npm comes inside other Node.js builds).
@@ -60,11 +60,13 @@ build() {
   cmake --build "$dir" -j "$JOBS" "${targets[@]}"
 }
 
-build_release() { build build/release -DCMAKE_BUILD_TYPE=Release; }
+# build/release: the tools, the servers and the viewer; no tests (./pl test builds its own trees).
+build_release() { build build/release -DCMAKE_BUILD_TYPE=Release -DPL_BUILD_TESTS=OFF -DPL_BUILD_BENCH=OFF "$@"; }
 
+# The demo builds only the five tools it runs (not the viewer, the ROS node or the other tools).
 cmd_demo() {
-  ensure_packages
-  build_release
+  ensure_packages deploy/build-packages.txt
+  build_release -- pl-sim pl-map pl-server pl-localize pl-eval
   bash tools/demo.sh build/release/bin build/demo
 }
 
@@ -99,7 +101,7 @@ test_summary() {
 
 cmd_test() {
   local t_all=$SECONDS rc=0
-  phase "installing the packages" ensure_packages deploy/debian-packages.txt deploy/fuzz-packages.txt
+  phase "installing the packages" ensure_packages deploy/build-packages.txt deploy/viewer-packages.txt deploy/test-packages.txt deploy/fuzz-packages.txt
   # Measured from a clean clone (2026-12-06): build/asan 1.4 GB after its tests, build/tsan 0.25.
   warn_disk 3 "./pl test (build/asan, build/tsan)"
   phase "building build/asan (ASan+UBSan)" build_asan
@@ -186,14 +188,14 @@ cmd_fuzz() {
       *) targets+=("$1"); shift ;;
     esac
   done
-  ensure_packages deploy/debian-packages.txt deploy/fuzz-packages.txt
+  ensure_packages deploy/build-packages.txt deploy/viewer-packages.txt deploy/test-packages.txt deploy/fuzz-packages.txt
   build_asan -- fuzzers
   bash tests/fuzz/run.sh build/asan/bin "$seconds" "${targets[@]}"
 }
 
 cmd_bench() {
-  ensure_packages deploy/debian-packages.txt deploy/bench-packages.txt
-  build_release
+  ensure_packages deploy/build-packages.txt deploy/viewer-packages.txt deploy/test-packages.txt deploy/bench-packages.txt
+  build build/release -DCMAKE_BUILD_TYPE=Release -DPL_BUILD_TESTS=OFF -DPL_BUILD_BENCH=ON
   bash bench/run.sh build/release/bin
 }
 
@@ -201,7 +203,7 @@ case "${1:-}" in
   demo) cmd_demo ;;
   test) cmd_test ;;
   bench) cmd_bench ;;
-  build) ensure_packages && build_release ;;
+  build) ensure_packages deploy/build-packages.txt deploy/viewer-packages.txt && build_release ;;
   fuzz) shift; cmd_fuzz "$@" ;;
   -h | --help | help) usage 0 ;;
   *) usage 2 ;;

@@ -13,7 +13,7 @@
 # the fault runs on signed maps.)
 # WORK_DIR keeps the maps between runs (the large one takes minutes to make); the PostgreSQL
 # database is made afresh each run so that the import is timed. Needs varnish, nginx-light, wrk,
-# postgresql (deploy/debian-packages.txt).
+# postgresql (deploy/test-packages.txt, which ./pl bench installs).
 set -uo pipefail
 BIN=$(cd "${1:?usage: fleet.sh BIN_DIR WORK_DIR [VEHICLES] [SECONDS] [TIERS] [FAULTS]}" && pwd)
 WORK=${2:?usage: fleet.sh BIN_DIR WORK_DIR [VEHICLES] [SECONDS] [TIERS] [FAULTS]}

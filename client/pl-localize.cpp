@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 
 #include "pl/client/config_fields.hpp"
 #include "pl/client/replay.hpp"
@@ -49,13 +50,15 @@ std::vector<std::size_t> choose_scans(const pl::Dataset& ds, const std::string& 
 
 // The start: ground truth, the first GPS fix (every heading searched), a pose given (searched within
 // --init-radius unless --init-search off), or none (global: the map's places).
-void choose_start(const pl::Dataset& ds, const std::string& init, bool search, pl::client::VehicleLocalizerConfig& cfg,
-                  pl::client::ReplayOptions& replay) {
+// Returns the start's position in the map frame when it is known before the map is (not with
+// --init global, nor a GPS fix placed about the map's origin).
+std::optional<Eigen::Vector3d> choose_start(const pl::Dataset& ds, const std::string& init, bool search,
+                                            pl::client::VehicleLocalizerConfig& cfg, pl::client::ReplayOptions& replay) {
   const double t0 = ds.times[replay.scans.front()];
   Eigen::Isometry3d start = Eigen::Isometry3d::Identity();
   if (init == "global") {
     replay.start = [t0](pl::client::VehicleLocalizer& loc) { loc.start_global(t0); };
-    return;
+    return std::nullopt;
   }
   if (init == "gt") {
     if (!ds.has_ground_truth()) throw Error("--init gt: " + ds.dir + " has no ground-truth poses; give --init x,y,z,yaw");
@@ -76,7 +79,7 @@ void choose_start(const pl::Dataset& ds, const std::string& init, bool search, p
         p.translation() = pl::EnuFrame(loc.map_origin()).to_enu(at) - lever;
         loc.start_near(p, t0);
       };
-      return;
+      return std::nullopt;
     }
     search = true;
   } else {
@@ -84,6 +87,21 @@ void choose_start(const pl::Dataset& ds, const std::string& init, bool search, p
     start = pl::make_pose(v[0], v[1], v[2], 0, 0, v[3] * M_PI / 180.0);
   }
   replay.start = [start, t0, search](pl::client::VehicleLocalizer& loc) { search ? loc.start_near(start, t0) : loc.start(start, t0); };
+  return start.translation();
+}
+
+// A start outside the map finds nothing to register to: said before the drive, with what would
+// find the vehicle.
+void check_start(const pl::client::VehicleLocalizer& loc, const std::optional<Eigen::Vector3d>& start, const std::string& map) {
+  const auto extent = loc.map_extent();
+  if (!start || !extent) return;
+  const double off = extent->distance(start->x(), start->y());
+  if (off <= 0) return;
+  std::fprintf(stderr,
+               "pl-localize: the start (%.1f, %.1f) lies %.0f m outside map '%s' (its points span x %.0f..%.0f m, y %.0f..%.0f m): "
+               "the scans will find no map there; --init global (the map's places) or --init gps (the drive's first GPS fix) "
+               "finds the vehicle\n",
+               start->x(), start->y(), off, map.c_str(), extent->min_x, extent->max_x, extent->min_y, extent->max_y);
 }
 
 // The settings pl-localize sets itself from its options and the drive: the map source (set after
@@ -304,9 +322,10 @@ int main(int argc, char** argv) {
     if (ds.meta.sensor.rate_hz > 0) lc.sweep_s = 1.0 / ds.meta.sensor.rate_hz;
     // --set last, over the options and the drive's values; before the start, which copies gps_search.
     apply_settings(cfg, settings);
-    choose_start(ds, init.empty() ? (ds.gps.empty() ? "gt" : "gps") : init, init_search == "on", cfg, replay);
+    const auto start = choose_start(ds, init.empty() ? (ds.gps.empty() ? "gt" : "gps") : init, init_search == "on", cfg, replay);
     if (db.empty()) cfg.tiles.server = server;
     else cfg.store_path = db;
+    cfg.on_wait = [](const std::string& line) { std::fprintf(stderr, "pl-localize: %s\n", line.c_str()); };
 
     cfg.changes.enabled = !report_out.empty() || !spool.empty();
     std::unique_ptr<pl::client::ReportOutbox> outbox;
@@ -333,6 +352,7 @@ int main(int argc, char** argv) {
       status = std::make_unique<pl::client::StatusReporter>(sc);
     }
     pl::client::VehicleLocalizer loc(cfg);  // after the reporter: its callback may run until the localizer stops
+    check_start(loc, start, cfg.tiles.map);
     if (status) {
       const Eigen::Isometry3d lidar_to_base = cfg.base_from_lidar.inverse();
       loc.on_scan([&status, lidar_to_base](const pl::client::ScanReport& r) { status->update(r.fused * lidar_to_base, r.health, r.t); });

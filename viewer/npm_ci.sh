@@ -11,7 +11,7 @@ fail() {
 for tool in node npm; do
   command -v "$tool" >/dev/null 2>&1 ||
     fail "$tool is not installed: the build fetches three.js for the map viewer with npm (Debian: apt-get install nodejs npm;" \
-         "both are in deploy/debian-packages.txt, which ./pl installs), or configure with -DPL_BUILD_VIEWER=OFF to build without the viewer"
+         "both are in deploy/build-packages.txt, which ./pl installs), or configure with -DPL_BUILD_VIEWER=OFF to build without the viewer"
 done
 mkdir -p "$dir" || exit 1
 if [[ -f "$dir/node_modules/three/package.json" ]] && cmp -s "$src/package-lock.json" "$dir/package-lock.json"; then

@@ -24,6 +24,10 @@ class ClientStatus {
     std::lock_guard<std::mutex> lock(mu_);
     st_.last_error = message;
   }
+  void extent(const std::optional<MapExtent>& e) {
+    std::lock_guard<std::mutex> lock(mu_);
+    st_.extent = e;
+  }
   void request_retried() {
     std::lock_guard<std::mutex> lock(mu_);
     ++st_.retries;

@@ -36,7 +36,7 @@ PL_MEMBERS(LocalizerConfig, 15);
 PL_MEMBERS(registration::PoseSearch, 7);
 PL_MEMBERS(TileClientConfig, 15);
 PL_MEMBERS(ChangeEvidenceConfig, 15);
-PL_MEMBERS(VehicleLocalizerConfig, 15);
+PL_MEMBERS(VehicleLocalizerConfig, 16);
 #undef PL_MEMBERS
 
 // Appends the settings of one struct under a path prefix.
@@ -252,7 +252,7 @@ void add(Table t, VehicleLocalizerConfig& c) {
   FIELD(ready_timeout_s, "the constructor waits this long for the map's version and tile size, s");
   FIELD(start_wait_s, "a start waits this long for the tiles round the start pose, s");
   FIELD(lookahead_s, "tiles are also kept round where the vehicle will be this far ahead, s");
-  // base_from_lidar, base_from_antenna (Eigen) are left out: see config_fields.hpp.
+  // on_wait (a callback), base_from_lidar, base_from_antenna (Eigen) are left out: see config_fields.hpp.
   FIELD(wheel_base_m, "the wheel base, for wheel travel and ticks, m");
   FIELD(metres_per_tick, "wheel travel per encoder tick, m");
   FIELD(max_odometry_samples, "the odometry buffer's bound, samples");

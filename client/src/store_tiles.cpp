@@ -1,5 +1,7 @@
 #include "pl/client/store_tiles.hpp"
 
+#include <algorithm>
+
 #include "pl/common/error.hpp"
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
@@ -25,7 +27,14 @@ StoreTiles::StoreTiles(const std::string& db_path, const std::string& map, long 
   if (!db.find_version(map, version))
     throw Error("map '" + map + "' in " + db_path + " has no version " + std::to_string(version));
   impl_ = std::make_unique<Impl>(Impl{std::move(db), map, {}, {}});
-  for (const auto& t : impl_->db.list_tiles(map, version)) impl_->hashes[t.key] = t.hash;
+  for (const auto& t : impl_->db.list_tiles(map, version)) {
+    impl_->hashes[t.key] = t.hash;
+    if (!extent_) extent_ = MapExtent{t.min_x, t.min_y, t.max_x, t.max_y};
+    extent_->min_x = std::min(extent_->min_x, t.min_x);
+    extent_->min_y = std::min(extent_->min_y, t.min_y);
+    extent_->max_x = std::max(extent_->max_x, t.max_x);
+    extent_->max_y = std::max(extent_->max_y, t.max_y);
+  }
   tile_size_ = info->tile_size;
   origin_ = info->origin;
   version_ = version;

@@ -52,7 +52,7 @@ void TileServer::succeeded() {
 
 // GET on the kept-alive connection; returns 200 answers, counts and throws on anything else.
 // `about` says what was asked ("the manifest of map town"); `hint_404` what a 404 means to fix.
-api::HttpResponse TileServer::get(const std::string& target, const std::string& about, const std::string& hint_404) {
+api::HttpResponse TileServer::get(const std::string& target, const std::string& about, const std::function<std::string()>& hint_404) {
   last_rejected_ = false;
   if (backoff_.backing_off()) status_.request_retried();
   api::HttpResponse res;
@@ -61,7 +61,7 @@ api::HttpResponse TileServer::get(const std::string& target, const std::string& 
   } catch (const std::exception& e) {
     last_status_ = 0;
     failed("cannot reach pl-server for " + about + " (" + e.what() +
-           "): is it running and reachable? Serving the tiles in memory and in the disk cache meanwhile");
+           "): is it running and reachable? (the tiles in memory and in the disk cache serve meanwhile)");
   }
   last_status_ = res.status;
   if (res.status == 200) {
@@ -72,7 +72,7 @@ api::HttpResponse TileServer::get(const std::string& target, const std::string& 
   std::string what = about + ": " + cfg_.server + " answered HTTP " + std::to_string(res.status) + (said.empty() ? "" : " \"" + said + "\"");
   if (res.status == 401) what += ": set TileClientConfig::token to a token with the read role";
   if (res.status == 403) what += ": the token needs the read role";
-  if (res.status == 404 && !hint_404.empty()) what += ": " + hint_404;
+  if (res.status == 404 && hint_404) what += ": " + hint_404();
   if (res.status >= 500) what += ": the server is failing or shutting down";
   failed(what);
 }
@@ -81,11 +81,28 @@ std::string TileServer::pinned_hint(long long version) const {
   return "is version " + std::to_string(version) + " of map " + cfg_.map + " published on this server? Pin one that is";
 }
 
+// On a 404 for a map: the maps the server has (one more request), so that a typo names its fix.
+std::string TileServer::maps_on_server() {
+  try {
+    const api::HttpResponse res = http_.get("/v1/maps", headers_);
+    if (res.status != 200) return "check the map's name";
+    const std::vector<std::string> names = wire::parse_map_names(res.body);
+    if (names.empty()) return "the server has no maps yet (pl-map push, or pl-map tile into its store)";
+    std::string list;
+    for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+    return "the server has " + std::string(names.size() == 1 ? "map " : "maps ") + list;
+  } catch (const std::exception&) {
+    return "check the map's name";
+  }
+}
+
 CachedManifest TileServer::manifest(std::optional<long long> pin) {
   std::string about = "the manifest of map " + cfg_.map;
-  api::HttpResponse res = get("/v1/maps/" + api::url_encode(cfg_.map), about, "check TileClientConfig::map");
+  api::HttpResponse res = get("/v1/maps/" + api::url_encode(cfg_.map), about, [this] { return maps_on_server(); });
   try {
-    return wire::parse_manifest(res.body, cfg_.map, pin);
+    CachedManifest m = wire::parse_manifest(res.body, cfg_.map, pin);
+    status_.extent(wire::parse_manifest_extent(res.body, m.version));
+    return m;
   } catch (const wire::WireError& e) {
     failed(about + ": " + e.what() + " (see the manifest in schema/openapi.yaml)");
   }
@@ -93,7 +110,7 @@ CachedManifest TileServer::manifest(std::optional<long long> pin) {
 
 std::pair<signing::SignedManifest, std::string> TileServer::signed_manifest(long long version, const std::vector<std::string>& trusted) {
   const std::string about = "the signed manifest of map " + cfg_.map + " version " + std::to_string(version);
-  api::HttpResponse res = get(wire::signed_manifest_target(cfg_.map, version, manifest_refusals_), about, pinned_hint(version));
+  api::HttpResponse res = get(wire::signed_manifest_target(cfg_.map, version, manifest_refusals_), about, [&] { return pinned_hint(version); });
   try {
     auto verified = wire::verified_manifest(res.body, trusted, cfg_.map, version);
     return {std::move(verified), std::move(res.body)};
@@ -107,7 +124,7 @@ std::pair<signing::SignedManifest, std::string> TileServer::signed_manifest(long
 long long TileServer::current(const std::vector<std::string>& trusted, Backoff* own) {
   const std::string about = "the current version of map " + cfg_.map;
   api::HttpResponse res = get(wire::current_target(cfg_.map, current_refusals_), about,
-                              "does the map exist, with a published version, on a server started with --timestamp-key?");
+                              [] { return "does the map exist, with a published version, on a server started with --timestamp-key?"; });
   const std::int64_t now = signing::unix_now();
   try {
     const signing::CurrentVersion c = wire::verified_current(res.body, trusted, cfg_.map, now);
@@ -130,7 +147,7 @@ std::vector<CachedTile> TileServer::roi(const RoiQuery& q, long long version, do
     target += "&have=";
     for (std::size_t i = 0; i < q.have.size(); ++i) target += (i ? "," : "") + q.have[i];
   }
-  api::HttpResponse res = get(target, about, pinned_hint(version));
+  api::HttpResponse res = get(target, about, [&] { return pinned_hint(version); });
   try {
     return wire::parse_roi(res.body, version, tile_size);
   } catch (const wire::WireError& e) {
@@ -143,8 +160,10 @@ TileServer::Blob TileServer::blob(const CachedTile& t, long long version, bool b
   const std::string target = by_key ? "/v1/maps/" + api::url_encode(cfg_.map) + "/versions/" + std::to_string(version) + "/tiles/" +
                                           std::to_string(t.key.tx) + "/" + std::to_string(t.key.ty)
                                     : "/v1/blobs/" + t.hash;
-  api::HttpResponse res = get(target, about, "the key rows cached for map " + cfg_.map + " version " + std::to_string(version) +
-                                                 " are stale (was the map store rebuilt?); asking the server again");
+  api::HttpResponse res = get(target, about, [&] {
+    return "the key rows cached for map " + cfg_.map + " version " + std::to_string(version) +
+           " are stale (was the map store rebuilt?); asking the server again";
+  });
   // The bytes are checked against the hash before anything else looks at them, then decoded.
   try {
     TileCloud cloud = wire::verified_tile(res.body, t.hash);

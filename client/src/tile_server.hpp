@@ -6,6 +6,7 @@
 // and throws RequestFailed. TileServer is used by the background thread only. Private to pl_client.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <utility>
 #include <memory>
@@ -79,7 +80,8 @@ class TileServer {
   bool last_rejected() const { return last_rejected_; }
 
  private:
-  api::HttpResponse get(const std::string& target, const std::string& about, const std::string& hint_404);
+  api::HttpResponse get(const std::string& target, const std::string& about, const std::function<std::string()>& hint_404);
+  std::string maps_on_server();
   [[noreturn]] void failed(const std::string& message);
   // An answer refused: counted, standing in the status as `what`, and failed (on `own`, a backoff of
   // its own, when given: then not as a failed request, which would hold back every other).

@@ -35,6 +35,26 @@ struct ScanJob {
 
 enum class StartRequest { None, At, Near, Global };
 
+// Waits up to cfg.ready_timeout_s for the map's version and tile size, telling cfg.on_wait what it
+// waits for after 1 s and then at doubling intervals. Returns whether the map is ready.
+bool wait_for_map(TileClient& client, const VehicleLocalizerConfig& cfg) {
+  const auto t0 = std::chrono::steady_clock::now();
+  double next = 1.0;
+  for (;;) {
+    const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (waited >= cfg.ready_timeout_s) return client.wait_ready(0.0);
+    if (client.wait_ready(std::min(next, cfg.ready_timeout_s) - waited)) return true;
+    if (cfg.on_wait && next < cfg.ready_timeout_s) {
+      const std::string why = client.status().last_error;
+      std::ostringstream line;
+      line << "waiting for map '" << cfg.tiles.map << "' from " << cfg.tiles.server << " (" << static_cast<int>(next) << " s of "
+           << cfg.ready_timeout_s << "): " << (why.empty() ? "no answer yet" : why);
+      cfg.on_wait(line.str());
+    }
+    next *= 2;
+  }
+}
+
 }  // namespace
 
 struct VehicleLocalizer::Impl {
@@ -344,12 +364,13 @@ VehicleLocalizer::VehicleLocalizer(const VehicleLocalizerConfig& cfg) : impl_(st
     tc.radius_m = std::max(tc.radius_m, cfg.localizer.roi_radius_m + 20.0);
     m.client_cfg = tc;
     m.client = std::make_unique<TileClient>(tc);
-    if (!m.client->wait_ready(cfg.ready_timeout_s)) {
+    if (!wait_for_map(*m.client, cfg)) {
       std::ostringstream waited;
       waited << cfg.ready_timeout_s;
-      throw Error("no map '" + tc.map + "' from " + tc.server + " within " + waited.str() + " s and none in the disk cache (" +
-                  m.client->status().last_error +
-                  "): is pl-server running, or give TileClientConfig::cache_path of an earlier drive");
+      std::string why = m.client->status().last_error;
+      for (const char* tail : {" (retrying in ", " (the tiles in memory"})  // giving up: no retry, no tiles
+        if (const auto at = why.find(tail); at != std::string::npos) why.erase(at);
+      throw Error("no map '" + tc.map + "' from " + tc.server + " within " + waited.str() + " s, and none in the disk cache: " + why);
     }
     const TileClientStatus st = m.client->status();
     m.tile_size = st.tile_size;
@@ -550,6 +571,10 @@ VehicleLocalizer::ChangeStats VehicleLocalizer::change_stats() const {
 
 double VehicleLocalizer::tile_size() const { return impl_->tile_size; }
 GeoPoint VehicleLocalizer::map_origin() const { return impl_->origin; }
+std::optional<MapExtent> VehicleLocalizer::map_extent() const {
+  std::lock_guard<std::mutex> lk(impl_->m);  // the worker replaces the client when the map's version moves
+  return impl_->store ? impl_->store->extent() : impl_->client ? impl_->client->status().extent : std::nullopt;
+}
 long long VehicleLocalizer::map_version() const { return impl_->version; }
 TileClientStatus VehicleLocalizer::tile_status() const {
   std::lock_guard<std::mutex> lk(impl_->m);  // the worker replaces the client when the map's version moves

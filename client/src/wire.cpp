@@ -105,6 +105,41 @@ CachedManifest parse_manifest(std::string_view body, const std::string& map, std
   return m;
 }
 
+std::optional<MapExtent> parse_manifest_extent(std::string_view body, long long version) {
+  const json j = json::parse(body.begin(), body.end(), nullptr, false);
+  if (!j.is_object()) return std::nullopt;
+  const auto current = j.find("current_version"), bounds = j.find("bounds");
+  if (current == j.end() || !current->is_number_integer() || current->get<long long>() != version || bounds == j.end() ||
+      !bounds->is_object())
+    return std::nullopt;
+  const auto lo = bounds->find("min"), hi = bounds->find("max");
+  if (lo == bounds->end() || hi == bounds->end() || !lo->is_array() || !hi->is_array() || lo->size() < 2 || hi->size() < 2)
+    return std::nullopt;
+  double v[4];
+  const json* at[4] = {&(*lo)[0], &(*lo)[1], &(*hi)[0], &(*hi)[1]};
+  for (int i = 0; i < 4; ++i) {
+    if (!at[i]->is_number()) return std::nullopt;
+    v[i] = at[i]->get<double>();
+    if (!std::isfinite(v[i])) return std::nullopt;
+  }
+  if (!(v[0] <= v[2] && v[1] <= v[3])) return std::nullopt;
+  return MapExtent{v[0], v[1], v[2], v[3]};
+}
+
+std::vector<std::string> parse_map_names(std::string_view body) {
+  const json j = parse(body, "the list of maps");
+  const json& maps = field(j, "maps", "the list of maps");
+  if (!maps.is_array()) bad("the list of maps: \"maps\" is not an array");
+  std::vector<std::string> names;
+  for (const json& m : maps) {
+    if (!m.is_object()) bad("the list of maps: an entry is not an object");
+    const json& name = field(m, "name", "the list of maps");
+    if (!name.is_string() || !valid_map_name(name.get<std::string>())) bad("the list of maps: an entry's name is not a map name");
+    names.push_back(name.get<std::string>());
+  }
+  return names;
+}
+
 signing::SignedManifest verified_manifest(std::string_view body, const std::vector<std::string>& trusted, const std::string& map,
                                           long long version) {
   signing::SignedManifest out;

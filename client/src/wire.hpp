@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "pl/client/tile_cache.hpp"
+#include "pl/client/tile_client.hpp"
 #include "pl/common/tile_codec.hpp"
 #include "pl/schema/api_rules.hpp"
 #include "pl/schema/signed_current.hpp"
@@ -33,6 +34,13 @@ using api::valid_tile_size;
 // GET /v1/maps/{map}: the manifest of `map`. The version is `pin` when given, else the map's
 // current one (a WireError when it has none). tile_size must be valid_tile_size.
 CachedManifest parse_manifest(std::string_view body, const std::string& map, std::optional<long long> pin);
+
+// The manifest's "bounds" as an x, y extent when the manifest is of `version` (it gives its current
+// version's) and the bounds are finite with min <= max; none otherwise (the extent is only a hint).
+std::optional<MapExtent> parse_manifest_extent(std::string_view body, long long version);
+
+// GET /v1/maps: the names of the server's maps.
+std::vector<std::string> parse_map_names(std::string_view body);
 
 // The target of GET /v1/maps/{map}/versions/{version}/manifest, after `refusals` signed manifests were
 // refused: then with ?refused=N, another entry of any cache on the way, so that one poisoned cache

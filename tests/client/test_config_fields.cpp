@@ -186,8 +186,9 @@ TEST(ConfigFields, CoverEveryMemberOfEveryConfigStruct) {
       {"search/", member_count<PoseSearch>(), 0},
       {"gps_search/", member_count<PoseSearch>(), 0},
       {"changes/", member_count<ChangeEvidenceConfig>(), 0},
-      // localizer, tiles, search, gps_search, changes; base_from_lidar and base_from_antenna left out (Eigen)
-      {"", member_count<VehicleLocalizerConfig>(), 7},
+      // localizer, tiles, search, gps_search, changes; base_from_lidar and base_from_antenna left out
+      // (Eigen), and on_wait (a callback)
+      {"", member_count<VehicleLocalizerConfig>(), 8},
   };
   std::size_t total = 0;
   for (const auto& f : folders) {

@@ -297,6 +297,46 @@ TEST(PlLocalize, ServerKilledMidDriveLocalizationContinuesOnTheCache) {
   EXPECT_LT(ape(dir / "again.txt", data + "/drive/poses.txt")["mean"].get<double>(), 0.05);
 }
 
+// A newcomer's mistakes are told at once: no server at the address, a map name the server does not
+// have (with the names it has), a start far outside the map (with the starts that would find it).
+TEST(PlLocalize, NoServerAMapNotThereAndAStartOutsideTheMapAreToldAtOnce) {
+  const std::string data = drive_and_map();
+  const pl::test::TempDir dir;
+  const std::string drive = " --dataset " + data + "/drive --beams 16 --count 3 --out " + (dir / "poses.tum");
+  const std::string nobody = "http://127.0.0.1:" + std::to_string(pl::test::free_port());
+  auto r = pl::test::run(pl::test::tool("pl-localize") + drive + " --server " + nobody + " --map town --set ready_timeout_s=3");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  // Said after 1 s and again at 2 s (not only when giving up at 3), naming the server and the reason.
+  EXPECT_NE(r.output.find("pl-localize: waiting for map 'town' from " + nobody + " (1 s of 3): cannot reach pl-server"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("(2 s of 3)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("Connection refused"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("pl-localize: error: no map 'town' from " + nobody + " within 3 s"), std::string::npos) << r.output;
+
+  std::filesystem::copy_file(data + "/maps.sqlite", dir / "maps.sqlite");
+  pl::test::ServerProcess server(dir / "maps.sqlite");
+  r = pl::test::run(pl::test::tool("pl-localize") + drive + " --server " + server.url() + " --map twon --set ready_timeout_s=2");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("waiting for map 'twon' from " + server.url() + " (1 s of 2)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("HTTP 404"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("the server has map town"), std::string::npos) << r.output;
+
+  // The drive's map spans a few hundred metres round the origin: (5000, 5000) is kilometres off.
+  r = pl::test::run(pl::test::tool("pl-localize") + drive + " --server " + server.url() + " --map town --init 5000,5000,0,0");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  const auto at = r.output.find("pl-localize: the start (5000.0, 5000.0) lies ");
+  ASSERT_NE(at, std::string::npos) << r.output;
+  const double off = std::stod(r.output.substr(at + std::string("pl-localize: the start (5000.0, 5000.0) lies ").size()));
+  EXPECT_GT(off, 6000.0);
+  EXPECT_LT(off, 7100.0);
+  EXPECT_NE(r.output.find("m outside map 'town'"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--init global (the map's places) or --init gps"), std::string::npos) << r.output;
+  // From the true first pose, inside the map: nothing said.
+  r = pl::test::run(pl::test::tool("pl-localize") + drive + " --server " + server.url() + " --map town --init gt");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(r.output.find("outside map"), std::string::npos) << r.output;
+}
+
 TEST(PlLocalize, FirstWithoutCountTakesTheRestOfTheDrive) {
   // --first K alone once asked for the scans from K to K + the largest size_t, which wrapped round
   // to before K: "cannot create std::vector larger than max_size()".

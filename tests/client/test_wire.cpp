@@ -103,6 +103,35 @@ TEST(Wire, TheManifestIsCheckedFieldByField) {
             std::string::npos);
 }
 
+// The manifest's bounds give the current version's extent; anything else about them gives none (it
+// is a hint for messages, never a reason to refuse the map).
+TEST(Wire, TheManifestsBoundsAreItsCurrentVersionsExtent) {
+  const std::string m = R"({"current_version":3,"bounds":{"min":[-10.5,-4,-1],"max":[90,40.25,8]}})";
+  const auto e = wire::parse_manifest_extent(m, 3);
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->min_x, -10.5);
+  EXPECT_EQ(e->min_y, -4);
+  EXPECT_EQ(e->max_x, 90);
+  EXPECT_EQ(e->max_y, 40.25);
+  EXPECT_EQ(e->distance(0, 0), 0);
+  EXPECT_EQ(e->distance(93, 44.25), 5);   // 3 and 4 beyond the corner
+  EXPECT_EQ(e->distance(-20.5, 10), 10);  // beyond the left side
+  EXPECT_FALSE(wire::parse_manifest_extent(m, 2));  // a pinned version other than the current one
+  for (const char* bad : {R"({"current_version":3})", R"({"current_version":3,"bounds":{"min":[0,0,0],"max":[-1,5,0]}})",
+                          R"({"current_version":3,"bounds":{"min":[0],"max":[1,1,1]}})", R"({"current_version":3,"bounds":{"min":["a",0],"max":[1,1]}})",
+                          R"({"current_version":3,"bounds":{"min":[0,0],"max":[1e999,1]}})", "not json", "[]"})
+    EXPECT_FALSE(wire::parse_manifest_extent(bad, 3)) << bad;
+}
+
+TEST(Wire, TheListOfMapsGivesTheirNames) {
+  EXPECT_EQ(wire::parse_map_names(R"({"maps":[{"name":"town","current_version":1},{"name":"r","current_version":null}]})"),
+            (std::vector<std::string>{"town", "r"}));
+  EXPECT_TRUE(wire::parse_map_names(R"({"maps":[]})").empty());
+  EXPECT_NE(wire_error([] { wire::parse_map_names(R"({"maps":{}})"); }).find("not an array"), std::string::npos);
+  EXPECT_NE(wire_error([] { wire::parse_map_names(R"({"maps":[{"name":"../x"}]})"); }).find("not a map name"), std::string::npos);
+  EXPECT_NE(wire_error([] { wire::parse_map_names(R"({"map":[]})"); }).find("has no \"maps\""), std::string::npos);
+}
+
 TEST(Wire, RoiAnswersWithHostileValuesAreRefused) {
   auto roi = [](const std::string& tiles) { return R"({"version":1,"tile_size":20,"tiles":[)" + tiles + R"(],"drop":[]})"; };
   auto rows = wire::parse_roi(roi(R"({"tx":-3,"ty":4,"hash":")" + kHash + R"(","points":12})"), 1, 20.0);

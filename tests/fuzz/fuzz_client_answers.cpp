@@ -1,5 +1,6 @@
 // Fuzz target: what the vehicle's tile client reads from a server (or from anything between the
-// server and the vehicle): the HTTP answer itself under the client's limits, and the manifest, ROI
+// server and the vehicle): the HTTP answer itself under the client's limits, and the manifest (with
+// its extent, and the list of maps), ROI
 // JSON, error bodies, tile bytes and places in it. The first byte says which; the rest is the
 // answer (for places: the ETag, a newline, the bytes). Also a signed manifest (verified against the
 // seeds' fleet key) and a manifest's text alone; a current-version statement (verified against the
@@ -28,6 +29,15 @@ void manifest(std::string_view body, std::optional<long long> pin) {
   try {
     auto m = wire::parse_manifest(body, "town", pin);
     if (!(m.tile_size > 0 && std::isfinite(m.tile_size)) || m.version < 1 || !std::isfinite(m.origin.lat_deg)) std::abort();
+  } catch (const wire::WireError&) {
+  }
+  // The same body as the manifest's extent (a hint: never throws) and as the list of maps.
+  if (const auto e = wire::parse_manifest_extent(body, pin.value_or(1))) {
+    if (!(e->min_x <= e->max_x && e->min_y <= e->max_y) || !std::isfinite(e->distance(0, 0)) || e->distance(e->min_x, e->max_y) != 0) std::abort();
+  }
+  try {
+    for (const auto& name : wire::parse_map_names(body))
+      if (!wire::valid_map_name(name)) std::abort();
   } catch (const wire::WireError&) {
   }
 }

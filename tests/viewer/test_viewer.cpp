@@ -32,7 +32,7 @@ namespace {
 #define NEED_CHROMIUM()                                                                                                \
   ASSERT_FALSE(HeadlessChromium::find().empty())                                                                       \
       << "chromium is not installed, so the viewer cannot be tested in a browser: apt-get install chromium (it is in " \
-         "deploy/debian-packages.txt, which ./pl test installs)"
+         "deploy/test-packages.txt, which ./pl test installs)"
 
 // Where the screenshots go, and the file written.
 std::string screenshot(HeadlessChromium& browser, const pl::test::TempDir& tmp, const std::string& name) {

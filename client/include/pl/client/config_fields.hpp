@@ -12,6 +12,7 @@
 // - base_from_lidar, base_from_antenna (Eigen): extrinsics are the vehicle's frame tree (a ROS
 //   node's TF, a drive's meta.json), not tuning; six numbers of a pose would also invite mixing up
 //   conventions (roll-pitch-yaw order, which frame in which).
+// - on_wait (a callback): the program's own, to say what the start waits for.
 // - tiles/version (std::optional<long long>): "unset" (the map's current version) has no value of
 //   its own among these types; pin a version with the caller's own option (pl-localize --map-version).
 // None of these structs holds an enum or a vector; FusionConfig's two std::array<double, 6> are

@@ -23,6 +23,7 @@ class StoreTiles {
   double tile_size() const { return tile_size_; }
   long long version() const { return version_; }
   const GeoPoint& origin() const { return origin_; }  // of the map's ENU frame
+  const std::optional<MapExtent>& extent() const { return extent_; }  // of the version's tiles (none: no tiles)
   // Every tile of the version within `radius` of `center`, decoded.
   std::vector<MapTile> near(const Eigen::Vector2d& center, double radius);
   // The version's places (opaque bytes, checked against their hash as the store reads them);
@@ -35,6 +36,7 @@ class StoreTiles {
   double tile_size_ = 0;
   GeoPoint origin_;
   long long version_ = 0;
+  std::optional<MapExtent> extent_;
 };
 
 }  // namespace pl::client

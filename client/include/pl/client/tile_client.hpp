@@ -112,6 +112,8 @@ struct TileClientStatus {
   long long latest = 0;       // with follow_s: the current version the server named last (0: not asked yet)
   std::size_t seeded = 0;     // tiles taken from seed() instead of loaded
   std::size_t evicted = 0;    // tiles dropped from memory to stay within memory_mb
+  std::optional<MapExtent> extent;  // of the map's current version, from the server's manifest (none: not
+                                    // given, or the version came from the disk cache)
   std::string last_error;     // the last problem, naming what to do; empty when fine (cleared by
                               // the next successful request, except a refusal: that stands until a
                               // version is adopted, the tile fetched or the places fetched)

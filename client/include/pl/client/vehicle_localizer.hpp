@@ -43,6 +43,9 @@ struct VehicleLocalizerConfig {
   TileClientConfig tiles;
   std::string store_path;
   double ready_timeout_s = 30.0;  // the constructor waits this long for the map's version and tile size
+  // Called while the constructor waits for the map, after 1 s and then at doubling intervals, with
+  // what it waits for and why not yet (the server and the tile client's last problem).
+  std::function<void(const std::string&)> on_wait;
   double start_wait_s = 30.0;     // a start waits this long for the tiles round the start pose
   double lookahead_s = 3.0;       // tiles are also kept round where the vehicle will be this far ahead
   // Extrinsics.
@@ -140,6 +143,9 @@ class VehicleLocalizer {
   long long map_version() const;
   std::size_t version_moves() const;     // how many times it moved
   TileClientStatus tile_status() const;  // default-constructed with a local store
+  // The x, y extent of the map version's tiles (ENU, m), when the server's manifest or the local
+  // store gives it.
+  std::optional<MapExtent> map_extent() const;
 
  private:
   struct Impl;
