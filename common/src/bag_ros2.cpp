@@ -9,7 +9,6 @@
 #include "pl/common/bag.hpp"
 
 #include <sqlite3.h>
-#include <yaml-cpp/yaml.h>
 #include <zstd.h>
 
 #include <algorithm>
@@ -27,6 +26,8 @@
 
 #include "pl/common/error.hpp"
 #include "pl/common/text.hpp"
+#include "ros2_metadata.hpp"
+#include "zstd_frames.hpp"
 
 namespace pl::bag {
 namespace {
@@ -39,14 +40,6 @@ constexpr std::string_view kZstdMagic("\x28\xB5\x2F\xFD", 4);
 // A decompressed message may not be larger than the largest value SQLite stores by default:
 // rosbag2 could not have stored it uncompressed either.
 constexpr std::uint64_t kMaxMessageBytes = 1000000000;
-// zstd turns 4 bytes into 128 KiB of one repeated byte, so the size of the input says little about
-// the size of the output. Output may grow to 64 MiB whatever the input, and beyond that to 1024
-// times the input: more than recordings compress, and a few hostile bytes cannot claim gigabytes.
-constexpr std::uint64_t kFreeOutput = 64ull << 20;
-constexpr std::uint64_t kMaxRatio = 1024;
-// rosbag2 writes a few hundred bytes of metadata per topic; YAML takes many times its text in
-// memory, so far larger text is refused before it is parsed.
-constexpr std::size_t kMaxMetadataBytes = 16u << 20;
 // Message definitions copied into the topics, in all: a hostile file could give one large
 // definition to a great many topics.
 constexpr std::size_t kMaxDefinitionBytes = 64u << 20;
@@ -106,80 +99,6 @@ std::string immutable_uri(const std::string& path) {
     }
   }
   return uri + "?immutable=1";
-}
-
-// The bytes that the zstd frames `in` state they hold, added up; ZSTD_CONTENTSIZE_UNKNOWN when a
-// frame does not say, or the frames are damaged.
-std::uint64_t stated_size(std::string_view in) {
-  std::uint64_t total = 0;
-  std::size_t at = 0;
-  while (at < in.size()) {
-    const unsigned long long n = ZSTD_getFrameContentSize(in.data() + at, in.size() - at);
-    const std::size_t frame = ZSTD_findFrameCompressedSize(in.data() + at, in.size() - at);
-    if (n == ZSTD_CONTENTSIZE_UNKNOWN || n == ZSTD_CONTENTSIZE_ERROR || ZSTD_isError(frame) || frame == 0 ||
-        n > UINT64_MAX - total)
-      return ZSTD_CONTENTSIZE_UNKNOWN;
-    total += n;
-    at += frame;
-  }
-  return total;
-}
-
-// The bytes that the zstd frames `in` hold (one frame, or several back to back), at most `limit`
-// bytes and at most what the input justifies (see kFreeOutput). A damaged, cut-short or oversized
-// frame is refused with an error that begins with `what` ("FILE: ...: ").
-std::string unzstd(ZSTD_DCtx* z, std::string_view in, std::uint64_t limit, const std::string& what) {
-  if (in.empty()) throw Error(what + "empty, where a zstd frame was expected (the data is damaged)");
-  const std::uint64_t cap = std::min<std::uint64_t>(limit, kFreeOutput + kMaxRatio * static_cast<std::uint64_t>(in.size()));
-  const auto too_large = [&](std::uint64_t n) {
-    return Error(what + "the zstd data decompresses to " + (n ? std::to_string(n) : "more than " + std::to_string(cap)) +
-                 " bytes, more than this reader accepts from " + std::to_string(in.size()) +
-                 " compressed bytes (the data is damaged or crafted)");
-  };
-  const auto allocate = [&](std::string& out, std::uint64_t n) {
-    try {
-      out.resize(static_cast<std::size_t>(n));
-    } catch (const std::bad_alloc&) {
-      throw Error(what + "cannot allocate " + std::to_string(n) + " bytes to decompress it");
-    }
-  };
-  ZSTD_DCtx_reset(z, ZSTD_reset_session_only);
-  std::string out;
-  // When every frame states its size (rosbag2's always do), one call decompresses them all into a
-  // buffer of exactly that size; zstd checks that each frame holds what it states.
-  const std::uint64_t total = stated_size(in);
-  if (total != ZSTD_CONTENTSIZE_UNKNOWN) {
-    if (total > cap) throw too_large(total);
-    allocate(out, total);
-    const std::size_t got = ZSTD_decompressDCtx(z, out.data(), out.size(), in.data(), in.size());
-    if (ZSTD_isError(got)) throw Error(what + "damaged zstd data (" + ZSTD_getErrorName(got) + ")");
-    if (got != total)
-      throw Error(what + "the zstd data holds " + std::to_string(got) + " bytes where it states " + std::to_string(total));
-    return out;
-  }
-  // Otherwise the output grows as it comes.
-  allocate(out, std::min<std::uint64_t>(cap, std::max<std::uint64_t>(in.size(), 64 << 10)));
-  ZSTD_inBuffer src{in.data(), in.size(), 0};
-  std::size_t pos = 0;
-  for (;;) {
-    if (pos == out.size()) {
-      if (out.size() >= cap) throw too_large(0);
-      allocate(out, std::min<std::uint64_t>(cap, 2 * static_cast<std::uint64_t>(out.size())));
-    }
-    ZSTD_outBuffer dst{out.data(), out.size(), pos};
-    const std::size_t in_before = src.pos;
-    const std::size_t r = ZSTD_decompressStream(z, &dst, &src);
-    if (ZSTD_isError(r)) throw Error(what + "damaged zstd data (" + ZSTD_getErrorName(r) + ")");
-    const bool moved = dst.pos != pos || src.pos != in_before;
-    pos = dst.pos;
-    if (r == 0 && src.pos == src.size) break;  // every frame complete
-    if (dst.pos < dst.size) {                  // room was left, so the decoder wants input
-      if (src.pos == src.size) throw Error(what + "the zstd data is cut short (the file was truncated?)");
-      if (!moved) throw Error(what + "damaged zstd data (the decoder makes no progress)");
-    }
-  }
-  out.resize(pos);
-  return out;
 }
 
 // Whether a column's default is a plain value (a number, a quoted string or blob, NULL,
@@ -380,79 +299,6 @@ class Db {
 
 // The settings of a rosbag2 metadata.yaml (or of a .db3 file's metadata table) that this reader
 // needs.
-struct Metadata {
-  std::string storage;             // storage_identifier
-  std::vector<std::string> files;  // relative_file_paths, in order
-  bool zstd_messages = false;      // compression_mode MESSAGE
-};
-
-std::string line_of(const YAML::Node& n, const std::string& name) {
-  const YAML::Mark m = n.Mark();
-  return m.line >= 0 ? name + ":" + std::to_string(m.line + 1) : name;
-}
-
-// A text field of a map; empty when it is missing or null.
-std::string text_field(const YAML::Node& map, const char* key, const std::string& name) {
-  const YAML::Node v = map[key];
-  if (!v.IsDefined() || v.IsNull()) return {};
-  if (!v.IsScalar()) throw Error(line_of(v, name) + ": " + key + " must be text, found a " + (v.IsSequence() ? "list" : "map"));
-  return v.Scalar();
-}
-
-// `text`: a whole metadata.yaml (the fields under rosbag2_bagfile_information), or a .db3 file's
-// metadata row (the fields themselves). `name` names the text in errors.
-Metadata parse_metadata(const std::string& text, const std::string& name, bool need_files) {
-  if (text.size() > kMaxMetadataBytes)
-    throw Error(name + ": " + std::to_string(text.size()) + " bytes, far more than rosbag2 writes: not a rosbag2 metadata.yaml");
-  Metadata md;
-  try {
-    const YAML::Node root = YAML::Load(text);
-    if (!root.IsMap()) throw Error(name + ": expected a YAML map of the bag's metadata: not rosbag2's metadata");
-    // (A YAML::Node assigned to another takes on its content: each is bound once here.)
-    const YAML::Node info = need_files ? root["rosbag2_bagfile_information"] : root;
-    if (!info.IsDefined() || !info.IsMap())
-      throw Error(name + ": no map rosbag2_bagfile_information: not a rosbag2 metadata.yaml");
-    md.storage = text_field(info, "storage_identifier", name);
-    // What storage and compression say matters more than the file list: an MCAP bag's files are
-    // not ours to read whatever they are.
-    if (md.storage == "mcap") {
-      const YAML::Node files = info["relative_file_paths"];
-      if (files.IsSequence() && files.size() > 0 && files[0].IsScalar()) md.files.push_back(files[0].Scalar());
-      return md;
-    }
-    const std::string format = lower(text_field(info, "compression_format", name));
-    std::string mode = text_field(info, "compression_mode", name);
-    for (char& c : mode) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    if (!mode.empty() && mode != "NONE") {
-      if (mode != "FILE" && mode != "MESSAGE")
-        throw Error(line_of(info["compression_mode"], name) + ": compression_mode " + in_quotes(mode) +
-                    " is not one rosbag2 writes (FILE, MESSAGE or NONE)");
-      if (format != "zstd")
-        throw Error(line_of(info, name) + ": compression_format " + in_quotes(format) +
-                    " is not supported (only zstd): decompress the bag with `ros2 bag convert`");
-      md.zstd_messages = mode == "MESSAGE";
-    }
-    if (!need_files) return md;
-    const YAML::Node files = info["relative_file_paths"];
-    if (!files.IsDefined() || !files.IsSequence())
-      throw Error(line_of(info, name) + ": no list relative_file_paths: not a rosbag2 metadata.yaml");
-    // The names may not add up to more than the text: YAML aliases could repeat one long name
-    // without end.
-    std::size_t bytes = 0;
-    for (const YAML::Node& f : files) {
-      if (!f.IsScalar()) throw Error(line_of(f, name) + ": relative_file_paths must list file names");
-      bytes += f.Scalar().size();
-      if (bytes > text.size())
-        throw Error(line_of(f, name) + ": relative_file_paths repeats names through YAML aliases: not a rosbag2 metadata.yaml");
-      md.files.push_back(f.Scalar());
-    }
-    if (md.files.empty()) throw Error(line_of(files, name) + ": relative_file_paths lists no files: the bag has no data");
-  } catch (const YAML::Exception& e) {
-    throw Error(name + (e.mark.line >= 0 ? ":" + std::to_string(e.mark.line + 1) : "") + ": not valid YAML (" + e.msg + ")");
-  }
-  return md;
-}
-
 class Ros2Reader : public Reader {
  public:
   // `files`: the bag's files in order (one when a .db3 file is given alone: `single`).

@@ -1,6 +1,9 @@
 #include "convert.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 
 #include "pl/common/error.hpp"
 #include "pl/common/pose.hpp"
@@ -57,6 +60,36 @@ Eigen::Isometry3d pose_from_list(const std::vector<double>& v, const std::string
   // Degrees to radians as pl-localize --init does it (x * pi / 180, in that order): the same numbers
   // give the same bits.
   return make_pose(v[0], v[1], v[2], v[3] * M_PI / 180.0, v[4] * M_PI / 180.0, v[5] * M_PI / 180.0);
+}
+
+::ros::Time ros_time(double t) {
+  ::ros::Time r;
+  r.fromNSec(static_cast<std::uint64_t>(std::llround(std::max(0.0, t) * 1e9)));
+  return r;
+}
+
+boost::array<double, 36> covariance_in_map(const Eigen::Matrix<double, 6, 6>& base_cov, const Eigen::Isometry3d& base_in_map) {
+  Eigen::Matrix<double, 6, 6> j = Eigen::Matrix<double, 6, 6>::Zero();
+  j.topLeftCorner<3, 3>() = base_in_map.rotation();
+  j.bottomRightCorner<3, 3>() = base_in_map.rotation();
+  const Eigen::Matrix<double, 6, 6> c = j * base_cov * j.transpose();
+  boost::array<double, 36> out{};
+  for (int r = 0; r < 6; ++r)
+    for (int k = 0; k < 6; ++k) out[static_cast<std::size_t>(r * 6 + k)] = c(r, k);
+  return out;
+}
+
+diagnostic_msgs::KeyValue kv(const std::string& k, const std::string& v) {
+  diagnostic_msgs::KeyValue x;
+  x.key = k;
+  x.value = v;
+  return x;
+}
+
+std::string num(double v, const char* fmt) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, fmt, v);
+  return buf;
 }
 
 }  // namespace pl::ros1

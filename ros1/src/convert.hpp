@@ -6,6 +6,9 @@
 #pragma once
 
 #include <ros/serialization.h>
+#include <ros/time.h>
+
+#include <boost/array.hpp>
 
 #include <Eigen/Geometry>
 
@@ -14,6 +17,7 @@
 #include <string_view>
 #include <vector>
 
+#include <diagnostic_msgs/KeyValue.h>
 #include <geometry_msgs/Pose.h>
 #include <geometry_msgs/Transform.h>
 
@@ -41,5 +45,12 @@ Eigen::Isometry3d from_msg(const geometry_msgs::Pose& pose);
 Eigen::Isometry3d from_msg(const geometry_msgs::Transform& t);
 // x, y, z, roll, pitch, yaw (degrees) as a pose; throws pl::Error naming `what` for another count.
 Eigen::Isometry3d pose_from_list(const std::vector<double>& v, const std::string& what);
+::ros::Time ros_time(double t);  // seconds (negative: 0)
+// The covariance proxy (x, y, z, roll, pitch, yaw in the base frame) as ROS wants it: about the
+// fixed axes of the parent frame.
+boost::array<double, 36> covariance_in_map(const Eigen::Matrix<double, 6, 6>& base_cov, const Eigen::Isometry3d& base_in_map);
+// A diagnostics key and value; a number as text.
+diagnostic_msgs::KeyValue kv(const std::string& k, const std::string& v);
+std::string num(double v, const char* fmt = "%.3f");
 
 }  // namespace pl::ros1

@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "convert.hpp"
+#include "params.hpp"
 #include "pl/client/config_fields.hpp"
 #include "pl/client/vehicle_localizer.hpp"
 #include "pl/common/dataset.hpp"
@@ -37,55 +38,6 @@ using client::PoseEstimate;
 using client::ScanReport;
 using client::VehicleLocalizer;
 using client::VehicleLocalizerConfig;
-
-// A parameter as text for set_config_field (numbers, booleans and strings, as YAML gives them).
-std::optional<std::string> param_text(const ::ros::NodeHandle& nh, const std::string& name) {
-  XmlRpc::XmlRpcValue v;
-  if (!nh.getParam(name, v)) return std::nullopt;
-  switch (v.getType()) {
-    case XmlRpc::XmlRpcValue::TypeBoolean: return static_cast<bool>(v) ? "true" : "false";
-    case XmlRpc::XmlRpcValue::TypeInt: return std::to_string(static_cast<int>(v));
-    case XmlRpc::XmlRpcValue::TypeDouble: {
-      char buf[64];
-      std::snprintf(buf, sizeof buf, "%.17g", static_cast<double>(v));
-      return std::string(buf);
-    }
-    case XmlRpc::XmlRpcValue::TypeString: return static_cast<std::string>(v);
-    default: throw Error("parameter " + nh.resolveName(name) + ": expected a number, a boolean or a string");
-  }
-}
-
-std::vector<double> param_list(const ::ros::NodeHandle& nh, const std::string& name) {
-  XmlRpc::XmlRpcValue v;
-  std::vector<double> out;
-  if (!nh.getParam(name, v)) return out;
-  if (v.getType() != XmlRpc::XmlRpcValue::TypeArray) throw Error("parameter " + nh.resolveName(name) + ": expected a list of numbers");
-  for (int i = 0; i < v.size(); ++i) {
-    if (v[i].getType() == XmlRpc::XmlRpcValue::TypeDouble) out.push_back(static_cast<double>(v[i]));
-    else if (v[i].getType() == XmlRpc::XmlRpcValue::TypeInt) out.push_back(static_cast<int>(v[i]));
-    else throw Error("parameter " + nh.resolveName(name) + ": element " + std::to_string(i) + " is not a number");
-  }
-  return out;
-}
-
-::ros::Time ros_time(double t) {
-  ::ros::Time r;
-  r.fromNSec(static_cast<std::uint64_t>(std::llround(std::max(0.0, t) * 1e9)));
-  return r;
-}
-
-// The covariance proxy (x, y, z, roll, pitch, yaw in the base frame) as ROS wants it: about the
-// fixed axes of the parent frame.
-boost::array<double, 36> covariance_in_map(const Eigen::Matrix<double, 6, 6>& base_cov, const Eigen::Isometry3d& base_in_map) {
-  Eigen::Matrix<double, 6, 6> j = Eigen::Matrix<double, 6, 6>::Zero();
-  j.topLeftCorner<3, 3>() = base_in_map.rotation();
-  j.bottomRightCorner<3, 3>() = base_in_map.rotation();
-  const Eigen::Matrix<double, 6, 6> c = j * base_cov * j.transpose();
-  boost::array<double, 36> out{};
-  for (int r = 0; r < 6; ++r)
-    for (int k = 0; k < 6; ++k) out[static_cast<std::size_t>(r * 6 + k)] = c(r, k);
-  return out;
-}
 
 struct HeldScan {
   double t = 0, covered_at = 0;  // the stamp; the odometry time that covers its sweep
@@ -572,18 +524,6 @@ struct LocalizerNode::Impl {
       tf.transform = to_transform_msg(e.base_in_map);
     }
     tf_out.sendTransform(tf);
-  }
-
-  static diagnostic_msgs::KeyValue kv(const std::string& k, const std::string& v) {
-    diagnostic_msgs::KeyValue x;
-    x.key = k;
-    x.value = v;
-    return x;
-  }
-  static std::string num(double v, const char* fmt = "%.3f") {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, fmt, v);
-    return buf;
   }
 
   void publish_diagnostics() {

@@ -10,21 +10,13 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <cmath>
-#include <nlohmann/json.hpp>
 #include <csignal>
-#include <random>
-#include <fcntl.h>
-#include <filesystem>
-#include <fstream>
 #include <sys/resource.h>
 #include <sys/sendfile.h>
 #include <sys/socket.h>
 #include <sys/uio.h>
 #include <unistd.h>
-#include <unordered_map>
 #include <cstdio>
-#include <ctime>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -33,6 +25,8 @@
 
 #include "pl/common/error.hpp"
 #include "pl/common/text.hpp"
+#include "access_log.hpp"
+#include "blob_files.hpp"
 #include "http_request.hpp"
 #include "viewer.hpp"
 
@@ -46,111 +40,6 @@ namespace pl::server {
 namespace {
 
 std::chrono::milliseconds ms(double s) { return std::chrono::milliseconds(static_cast<long>(s * 1000)); }
-
-// gmtime_r: access-log lines are made on every server thread at once (gmtime's buffer is shared).
-std::string utc_now() {
-  std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
-
-// UTC ISO 8601 with milliseconds, as the store writes timestamps: for JSON log lines.
-std::string utc_now_ms() {
-  const auto now = std::chrono::system_clock::now();
-  const std::time_t t = std::chrono::system_clock::to_time_t(now);
-  const long ms = static_cast<long>(std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[40];
-  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%S", &tm);
-  char out[48];
-  std::snprintf(out, sizeof(out), "%s.%03ldZ", buf, ms);
-  return out;
-}
-
-// RFC 9110's IMF-fixdate, for the Date header of every response: formatted once a second per
-// thread (strftime per response was 1 % of a server answering small queries).
-std::string http_date() {
-  thread_local std::time_t last = -1;
-  thread_local std::string text;
-  std::time_t t = std::time(nullptr);
-  if (t != last) {
-    std::tm tm{};
-    gmtime_r(&t, &tm);
-    char buf[40];
-    std::strftime(buf, sizeof(buf), "%a, %d %b %Y %H:%M:%S GMT", &tm);
-    text = buf;
-    last = t;
-  }
-  return text;
-}
-
-std::mutex log_mutex;
-
-// Request ids: a random prefix per process and a counter ("9f3c01a2-42"), in the access log, the
-// X-Request-Id header and the log line of an internal error.
-std::string next_request_id() {
-  static const std::uint32_t prefix = std::random_device{}();
-  static std::atomic<std::uint64_t> counter{0};
-  char buf[40];
-  std::snprintf(buf, sizeof(buf), "%08x-%llu", prefix, static_cast<unsigned long long>(++counter));
-  return buf;
-}
-
-// Tile bytes appended to one file, each found by its content hash at its offset, so that responses
-// go out with sendfile(2) (no copy into the socket). Tiles never change, so bytes once written are
-// valid for good. The file is unlinked as soon as it is made: the system frees it when the server
-// stops, however it stops. One file rather than one a tile: creating tens of thousands of files
-// cost more than serving them (79 % of the server's time in the file system's inode allocation,
-// serving tiles not yet in memory from PostgreSQL). Bounded by kMaxBytes; past it, the caller
-// sends the bytes from memory instead.
-class BlobFiles {
- public:
-  static constexpr std::uint64_t kMaxBytes = std::uint64_t{4} << 30, kPage = 4096;
-  struct Span {
-    int fd;
-    off_t offset;
-  };
-  BlobFiles() {
-    std::string tmpl = (std::filesystem::temp_directory_path() / "pl-server-tiles-XXXXXX").string();
-    fd_ = mkostemp(tmpl.data(), O_CLOEXEC);
-    if (fd_ >= 0) ::unlink(tmpl.c_str());
-  }
-  ~BlobFiles() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  BlobFiles(const BlobFiles&) = delete;
-  BlobFiles& operator=(const BlobFiles&) = delete;
-  // Where the bytes are, written on first use; nothing when there is no file or no room (the caller
-  // copies instead).
-  std::optional<Span> span_of(const std::string& hash, const std::string& bytes) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    auto it = offsets_.find(hash);
-    if (it != offsets_.end()) return Span{fd_, it->second};
-    // Each tile starts on a page: sendfile(2) then moves it in as few pages as it fills.
-    const std::uint64_t start = (end_ + kPage - 1) / kPage * kPage;
-    if (fd_ < 0 || start + bytes.size() > kMaxBytes) return std::nullopt;
-    const auto at = static_cast<off_t>(start);
-    for (std::size_t done = 0; done < bytes.size();) {
-      const ssize_t n = ::pwrite(fd_, bytes.data() + done, bytes.size() - done, at + static_cast<off_t>(done));
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) return std::nullopt;  // a full disk: from memory, and the next tile tries again
-      done += static_cast<std::size_t>(n);
-    }
-    end_ = start + bytes.size();
-    offsets_.emplace(hash, at);
-    return Span{fd_, at};
-  }
-
- private:
-  int fd_ = -1;
-  std::uint64_t end_ = 0;
-  std::mutex mutex_;
-  std::unordered_map<std::string, off_t> offsets_;
-};
 
 // Room for many connections: raise the descriptor limit towards the hard limit (65,536 at most).
 void raise_fd_limit() {
@@ -437,23 +326,8 @@ struct Server::Impl {
     void log_answer(const ApiResponse& r, const std::string& method, const std::string& target, std::size_t bytes) {
       double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
       server_.metrics.observe(r.route.empty() ? "other" : r.route, r.status, seconds, bytes);
-      if (server_.cfg.access_log) {
-        std::string line;
-        if (server_.cfg.api.log_json) {
-          nlohmann::json j = {{"time", utc_now_ms()}, {"level", "info"},       {"msg", "request"},
-                              {"request_id", request_id_}, {"remote", remote_}, {"method", printable(method, 32)},
-                              {"target", printable(target)}, {"status", r.status}, {"bytes", bytes},
-                              {"ms", std::round(seconds * 1e6) / 1e3}};
-          line = j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
-        } else {
-          char tail[96];
-          std::snprintf(tail, sizeof(tail), "\" %d %zu %.3fms\n", r.status, bytes, seconds * 1000.0);
-          line = utc_now() + " " + remote_ + " " + request_id_ + " \"" + printable(method, 32) + " " + printable(target) + tail;
-        }
-        std::lock_guard<std::mutex> lock(log_mutex);
-        std::fputs(line.c_str(), stdout);
-        std::fflush(stdout);
-      }
+      if (server_.cfg.access_log)
+        write_access_line(server_.cfg.api.log_json, request_id_, remote_, method, target, r.status, bytes, seconds);
     }
 
     // Tiles at most this large go out from memory with their header; larger ones with sendfile(2).
