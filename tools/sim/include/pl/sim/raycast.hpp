@@ -69,7 +69,7 @@ class Bvh {
     std::uint32_t count;  // primitives in a leaf, 0 for an inner node
   };
   // A primitive in the form the hot loop wants (yaw as cos/sin, inverse radii, triangle edges),
-  // in the same order as prims_. Layout per shape is private to raycast.cpp.
+  // in the same order as prims_. Layout per shape is private to shape_hits.hpp.
   struct Prepared {
     float v[9];
     std::uint32_t shape;
