@@ -501,10 +501,10 @@ TEST(Fleet, CommandLine) {
   const std::string fleet = pl::test::tool("pl-fleet");
   auto r = pl::test::run(fleet + " --server ftp://127.0.0.1:1 --map town");
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.output.find("pl-fleet: error: --server ftp://127.0.0.1:1: write http://HOST:PORT or https://HOST:PORT"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("pl-fleet: error: fleet: server ftp://127.0.0.1:1: write http://HOST:PORT or https://HOST:PORT"), std::string::npos) << r.output;
   r = pl::test::run(fleet + " --server http://127.0.0.1:1 --map town --speed-min 30 --speed-max 20");
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.output.find("--speed-max 20 is below --speed-min 30"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("speed_max 20 is below speed_min 30"), std::string::npos) << r.output;
   r = pl::test::run(fleet + " --server http://127.0.0.1:1 --map town --vehicles 0");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.output.find("--vehicles"), std::string::npos) << r.output;

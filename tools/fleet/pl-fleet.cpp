@@ -59,11 +59,6 @@ int main(int argc, char** argv) {
 
   tool.body([&] {
     if (version > 0) o.version = version;
-    if (o.speed_max < o.speed_min) {
-      char what[160];
-      std::snprintf(what, sizeof what, "--speed-max %g is below --speed-min %g: give --speed-min <= --speed-max", o.speed_max, o.speed_min);
-      throw pl::Error(what);
-    }
     o.validate();
     const bool progress = pl::Progress::enabled();
     pl::fleet::FleetObserver observer;

@@ -57,7 +57,7 @@ namespace {
 
 std::string num(double v) {
   char b[64];
-  std::snprintf(b, sizeof b, "%.3f", v);
+  std::snprintf(b, sizeof b, "%g", v);
   return b;
 }
 
@@ -65,33 +65,34 @@ std::string num(double v) {
 
 void FleetOptions::validate() const {
   auto need = [](bool ok, const std::string& what) {
-    if (!ok) throw Error(what);
+    if (!ok) throw Error("fleet: " + what);
   };
-  need(!server.empty(), "--server is required: the URL of pl-server or of the cache in front of it (http://HOST:PORT)");
-  const Url u = parse_url(server, "--server");
-  need(u.scheme == "http" || u.scheme == "https", "--server " + server + ": write http://HOST:PORT or https://HOST:PORT");
-  need(ca_file.empty() || u.scheme == "https", "--ca-file goes with an https:// --server");
-  need(api::valid_map_name(map), "--map must be a map name (1 to 64 of A-Z a-z 0-9 _ . -), got \"" + map + "\"");
-  need(!version || *version >= 1, "--map-version must be 1 or more (or left out for the map's current version)");
-  need(vehicles >= 1 && vehicles <= 100000, "--vehicles must be between 1 and 100000, got " + std::to_string(vehicles));
-  need(std::isfinite(duration_s) && duration_s > 0, "--duration must be a number of seconds > 0");
-  need(std::isfinite(speed_min) && speed_min >= 0 && std::isfinite(speed_max) && speed_max >= speed_min && speed_max <= 100,
-       "--speed-min and --speed-max: 0 <= min <= max <= 100 m/s, got " + num(speed_min) + " and " + num(speed_max));
-  need(std::isfinite(ramp_s) && ramp_s >= 0, "--ramp must be a number of seconds >= 0");
-  need(std::isfinite(block_m) && block_m >= 1, "--block must be a number of metres >= 1");
-  need(threads >= 1 && threads <= 64, "--threads must be between 1 and 64");
-  need(std::isfinite(scan_hz) && scan_hz > 0 && scan_hz <= 100, "--scan-hz must be between 0 and 100");
-  need(radius_m == 0 || (radius_m > 0 && radius_m <= 4000), "--radius must be between 0 and 4000 m (0: the vehicle's default)");
-  need(roi_radius_m >= 0 && roi_radius_m <= 4000, "--roi-radius must be between 0 and 4000 m (0: the localizer's default)");
-  need(lookahead_s == -1 || (lookahead_s >= 0 && lookahead_s <= 60), "--lookahead must be between 0 and 60 s");
-  need(timeout_s >= 0 && std::isfinite(timeout_s), "--timeout must be a number of seconds > 0");
+  need(!server.empty(), "server is empty: give the URL of pl-server or of the cache in front of it (http://HOST:PORT)");
+  const Url u = parse_url(server, "fleet: server");
+  need(u.scheme == "http" || u.scheme == "https", "server " + server + ": write http://HOST:PORT or https://HOST:PORT");
+  need(ca_file.empty() || u.scheme == "https", "ca_file goes with an https:// server");
+  need(api::valid_map_name(map), "map must be a map name (1 to 64 of A-Z a-z 0-9 _ . -), got \"" + map + "\"");
+  need(!version || *version >= 1, "version must be 1 or more (or empty for the map's current version)");
+  need(vehicles >= 1 && vehicles <= 100000, "vehicles must be between 1 and 100000, got " + std::to_string(vehicles));
+  need(std::isfinite(duration_s) && duration_s > 0, "duration_s must be a number of seconds > 0");
+  need(std::isfinite(speed_min) && speed_min >= 0 && speed_min <= 100, "speed_min must be between 0 and 100 m/s, got " + num(speed_min));
+  need(std::isfinite(speed_max) && speed_max >= 0 && speed_max <= 100, "speed_max must be between 0 and 100 m/s, got " + num(speed_max));
+  need(speed_max >= speed_min, "speed_max " + num(speed_max) + " is below speed_min " + num(speed_min) + ": give speed_min <= speed_max");
+  need(std::isfinite(ramp_s) && ramp_s >= 0, "ramp_s must be a number of seconds >= 0");
+  need(std::isfinite(block_m) && block_m >= 1, "block_m must be a number of metres >= 1");
+  need(threads >= 1 && threads <= 64, "threads must be between 1 and 64");
+  need(std::isfinite(scan_hz) && scan_hz > 0 && scan_hz <= 100, "scan_hz must be above 0 and at most 100");
+  need(radius_m == 0 || (radius_m > 0 && radius_m <= 4000), "radius_m must be between 0 and 4000 m (0: the vehicle's default)");
+  need(roi_radius_m >= 0 && roi_radius_m <= 4000, "roi_radius_m must be between 0 and 4000 m (0: the localizer's default)");
+  need(lookahead_s == -1 || (lookahead_s >= 0 && lookahead_s <= 60), "lookahead_s must be between 0 and 60 s (-1: the vehicle's default)");
+  need(timeout_s >= 0 && std::isfinite(timeout_s), "timeout_s must be a number of seconds >= 0 (0: the tile client's default)");
   need(retry_min_s >= 0 && retry_max_s >= 0 && (retry_max_s == 0 || retry_max_s >= retry_min_s),
-       "--retry-min and --retry-max: seconds, min <= max");
-  need(start_wait_s == -1 || start_wait_s >= 0, "--start-wait must be a number of seconds >= 0");
-  need(memory_mb >= 0 && std::isfinite(memory_mb), "--memory must be a number of MiB > 0");
+       "retry_min_s and retry_max_s: seconds, min <= max (0: the tile client's default)");
+  need(start_wait_s == -1 || start_wait_s >= 0, "start_wait_s must be a number of seconds >= 0 (-1: the vehicle's default)");
+  need(memory_mb >= 0 && std::isfinite(memory_mb), "memory_mb must be a number of MiB >= 0 (0: the tile client's default)");
   for (const auto& m : origin_metrics) {
-    const Url mu = parse_url(m, "--origin-metrics");
-    need(mu.scheme == "http", "--origin-metrics " + m + ": a replica's plain http:// address, e.g. http://127.0.0.1:8080/metrics");
+    const Url mu = parse_url(m, "fleet: origin_metrics");
+    need(mu.scheme == "http", "origin_metrics " + m + ": a replica's plain http:// address, e.g. http://127.0.0.1:8080/metrics");
   }
 }
 
@@ -202,7 +203,7 @@ FleetReport run_fleet(const FleetOptions& options, const FleetObserver& observer
 
   net::io_context ioc;
   {
-    const Url u = parse_url(o.server, "--server");
+    const Url u = parse_url(o.server, "server");
     tcp::resolver resolver(ioc);
     sh->endpoints = resolver.resolve(u.host, u.port);
     sh->host_header = u.host + ":" + u.port;

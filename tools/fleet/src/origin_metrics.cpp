@@ -12,7 +12,7 @@
 namespace pl::fleet {
 
 Counters scrape(const std::string& url, const FleetOptions& o) {
-  const Url u = parse_url(url, "--origin-metrics");
+  const Url u = parse_url(url, "origin_metrics");
   api::HttpOptions ho;
   ho.timeout_s = std::max(o.timeout_s, 5.0);
   ho.insecure_http = true;

@@ -53,7 +53,8 @@ struct FleetOptions {
   bool record_fetches = false;              // keep every fetched tile (key, hash of the bytes, size) in
                                             // VehicleReport::fetched (for tests; not in the JSON)
 
-  // Throws pl::Error naming the first problem and its fix.
+  // Throws pl::Error naming the first field at fault and the fix ("fleet: speed_max 20 is below
+  // speed_min 30: ..."); run_fleet calls it first.
   void validate() const;
 };
 
