@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <sstream>
 #include <tuple>
 
 #include "pl/common/error.hpp"
@@ -217,6 +219,22 @@ ChangeReport parse_change_report(std::string_view text, const ChangeReportLimits
     r.tiles.push_back(std::move(e));
   }
   return r;
+}
+
+std::vector<ChangeReport> read_change_reports(const std::vector<std::string>& paths) {
+  std::vector<ChangeReport> reports;
+  for (const std::string& path : paths) {
+    std::ifstream f(path, std::ios::binary);
+    if (!f) throw Error(path + ": cannot read the change report");
+    std::ostringstream text;
+    text << f.rdbuf();
+    try {
+      reports.push_back(parse_change_report(text.str()));
+    } catch (const Error& e) {
+      throw Error(path + ": " + e.what());
+    }
+  }
+  return reports;
 }
 
 }  // namespace pl::schema

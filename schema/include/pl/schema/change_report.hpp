@@ -73,5 +73,8 @@ std::array<std::int32_t, 3> voxel_of_cm(const std::array<std::int32_t, 3>& p, do
 // Parses and checks a report (names, ids, finite times, positive grid sizes, tiles in key order
 // without repeats, cells inside their tile and in order, sample points in order and in added cells). Throws pl::Error naming what is wrong.
 ChangeReport parse_change_report(std::string_view text, const ChangeReportLimits& limits = {});
+// The report files, parsed in order (within the default limits). Throws pl::Error naming the file
+// that cannot be read or does not parse: "PATH: change report: ...".
+std::vector<ChangeReport> read_change_reports(const std::vector<std::string>& paths);
 
 }  // namespace pl::schema

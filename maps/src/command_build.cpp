@@ -1,0 +1,144 @@
+// pl-map build and tile: a map from a drive (gloam.hpp), and a cloud cut into the tiles of a staged
+// version (import.hpp).
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "command.hpp"
+#include "pl/common/cloud_io.hpp"
+#include "pl/common/error.hpp"
+#include "pl/common/progress.hpp"
+#include "pl/common/text.hpp"
+#include "pl/maps/catalog.hpp"
+#include "pl/maps/gloam.hpp"
+#include "pl/maps/import.hpp"
+#include "pl/schema/store.hpp"
+
+namespace pl::maps {
+
+namespace {
+
+// A word that names an enum value, mapped by CLI11 as it parses (CheckedTransformer). --help and the
+// error for any other word read as pl::cli::choice's: "--poses takes gt or lidar, got \"odometry\"".
+template <class E>
+CLI::Option* enum_choice(CLI::App& c, const std::string& flag, E& value, const std::string& help,
+                         const std::vector<std::pair<std::string, E>>& words) {
+  std::string type, listed, shown;
+  for (std::size_t i = 0; i < words.size(); ++i) {
+    type += (i == 0 ? "" : "|") + words[i].first;
+    listed += (i == 0 ? "" : i + 1 == words.size() ? " or " : ", ") + words[i].first;
+    if (words[i].second == value) shown = words[i].first;
+  }
+  auto known = [=](std::string& text) -> std::string {
+    for (const auto& w : words)
+      if (text == w.first) return "";
+    return flag + " takes " + listed + ", got \"" + text + "\"";
+  };
+  // transform() puts each validator first: the word is checked, then mapped.
+  return c.add_option(flag, value, help)
+      ->transform(CLI::CheckedTransformer(words).description(""))
+      ->transform(CLI::Validator(known, ""))
+      ->type_name(type)
+      ->default_str(shown);
+}
+
+}  // namespace
+
+void add_build(cli::Tool& tool, std::ostream& out) {
+  struct State {
+    std::string dataset, out, traj_out, odometry_out, report;
+    pl::DatasetOptions topics;
+    GloamConfig cfg;
+  };
+  auto s = std::make_shared<State>();
+  CLI::App& c = tool.command("build", "merge a drive's scans into a voxelized map (PCD in the dataset's world frame, its "
+                             "geodetic origin in the header) at ground-truth or LiDAR-odometry poses", [s, &out] {
+    check_gloam_config(s->cfg);
+    if (!s->odometry_out.empty() && s->cfg.poses != PoseSource::Lidar)
+      throw pl::Error("--odometry-out needs --poses lidar (with --poses gt no odometry runs)");
+    const pl::Dataset ds = pl::open_dataset(s->dataset, s->topics);
+    pl::StageProgress bars;
+    GloamObserver observer;
+    observer.progress = [&](const std::string& stage, std::size_t done, std::size_t total) { bars.update(stage, done, total); };
+    observer.log = [&](const std::string& line) {
+      bars.finish();
+      out << line << '\n';
+    };
+    const GloamResult r = build_gloam_map(ds, s->cfg, observer);
+    bars.finish();
+    out << write_gloam_outputs(r, s->out, s->traj_out, s->report, s->odometry_out);
+    return 0;
+  });
+  MapBuildConfig& merge = s->cfg.merge;
+  cli::dataset_option(c, s->dataset, s->topics, "the drive to build the map from");
+  cli::output_file(c, "--out", s->out, "where to write the map (PCD)")->required();
+  enum_choice(c, "--poses", s->cfg.poses, "gt: the dataset's ground truth; lidar: LiDAR odometry (without --gps started at "
+              "the first ground-truth pose when there is one)", {{"gt", PoseSource::GroundTruth}, {"lidar", PoseSource::Lidar}});
+  c.add_flag("--gps", s->cfg.gps, "(with --poses lidar) a pose graph of keyframes over the odometry with the drive's GPS fixes "
+             "(robust to multipath) sets the poses; the ground truth is not used");
+  c.add_flag("--loops", s->cfg.loops, "(with --poses lidar) loop closures found by position and by a place descriptor, verified "
+             "by ICP, join the graph (re-solved on each)");
+  cli::output_file(c, "--traj-out", s->traj_out, "write the LiDAR pose of every scan, line for line with the dataset (KITTI; "
+                   "TUM with the scan times when FILE ends in .tum)");
+  cli::output_file(c, "--odometry-out", s->odometry_out, "(with --poses lidar) write the LiDAR odometry's pose of every scan, "
+                   "before --gps and --loops corrected them (moved as a whole to start where the graph put the first "
+                   "scan), in the format of --traj-out: the drift and the correction from one run");
+  cli::output_file(c, "--report", s->report, "write JSON: keyframes, GPS edges and outliers, GPS residuals, loops proposed/"
+                   "accepted/rejected (and why), the mean error against ground truth before and after the graph, times");
+  enum_choice(c, "--deskew", s->cfg.deskew, "correct each scan for the motion during the sweep, timed by azimuth (auto: the "
+              "LiDAR odometry's features for recordings without meta.json, and everything for drives with point_times/ "
+              "such as pl-sim's; the merged map of a KITTI raw drive only with on, as there it did not help)",
+              {{"auto", Deskew::Auto}, {"on", Deskew::On}, {"off", Deskew::Off}});
+  cli::number(c, "--voxel", merge.voxel_m, "voxel side of the map, metres", cli::above(0));
+  cli::number(c, "--every", merge.every, "merge every N-th scan (the odometry still uses them all)", cli::at_least(1));
+  cli::number(c, "--min-range", merge.scan.min_range_m, "returns closer than this are not merged, metres", cli::at_least(0));
+  cli::number(c, "--max-range", merge.scan.max_range_m, "returns farther than this are not merged, metres", cli::above(0));
+}
+
+void add_tile(cli::Tool& tool, std::ostream& out) {
+  struct State {
+    std::string cloud, db, map, origin, places = "auto";
+    ImportConfig cfg;
+  };
+  auto s = std::make_shared<State>();
+  CLI::App& c = tool.command("tile", "voxelize a cloud, estimate normals, cut it into tiles, Draco-encode them and write a new "
+                             "staged version (the map is created on first use; unchanged tiles share their stored bytes)", [s, &out] {
+    check_import_config(s->cfg);
+    if (!s->origin.empty()) s->cfg.origin = cli::geo_point(s->origin, "--origin");
+    if (s->places == "auto") s->cfg.places = pl::file_exists(places_path(s->cloud)) ? places_path(s->cloud) : "";
+    else if (s->places != "none") s->cfg.places = s->places;
+    const pl::Cloud cloud = pl::read_cloud(s->cloud);
+    std::unique_ptr<pl::Progress> bar;
+    const ImportResult r = import_cloud(s->db, s->map, cloud, s->cloud, s->cfg, [&](std::size_t done, std::size_t total) {
+      if (!bar) bar = std::make_unique<pl::Progress>("encoding tiles", total);
+      bar->update(done);
+    });
+    if (bar) bar->finish();
+    const auto number = static_cast<long long>(r.version.number);
+    const std::string parent = r.version.parent ? "parent v" + std::to_string(*r.version.parent) : "no parent";
+    print(out, "map %s version %lld staged (%s): %zu tiles (%zu new or changed, %zu unchanged, %zu removed), %zu points, %s\n",
+          s->map.c_str(), number, parent.c_str(), r.tiles, r.changed, r.unchanged, r.removed, r.points,
+          megabytes(r.bytes).c_str());
+    if (r.places > 0) print(out, "%zu places for relocalization from %s\n", r.places, s->cfg.places.c_str());
+    else out << "no places: the localizer can start and relocalize only near a given pose (pl-map build writes them)\n";
+    print(out, "publish it with: pl-map publish --db %s --map %s --version %lld\n", pl::store::display_name(s->db).c_str(),
+          s->map.c_str(), number);
+    return 0;
+  });
+  c.add_option("--cloud", s->cloud, "the cloud (.pcd, .ply or .bin), in the map's local ENU frame")->required()->type_name("FILE");
+  db_option(c, s->db, true);
+  c.add_option("--map", s->map, "the map's name (1 to 64 of A-Z a-z 0-9 _ . -)")->required()->type_name("NAME");
+  cli::geo_option(c, "--origin", s->origin, "the geodetic origin of the cloud's ENU frame (when the cloud does not record it)");
+  cli::number(c, "--voxel", s->cfg.voxel_m, "voxel side, metres", cli::above(0));
+  cli::number(c, "--tile-size", s->cfg.tile_size_m, "tile side, metres", cli::at_least(1));
+  cli::number(c, "--normal-radius", s->cfg.normal_radius_m, "neighbourhood of the normals, metres (default: 3 x --voxel)",
+              cli::above(0))->default_str("");
+  cli::number(c, "--max-error", s->cfg.codec.max_error_m, "largest position error after decoding, metres",
+              cli::above_up_to(0, 0.1));
+  c.add_option("--note", s->cfg.note, "the version's note (default: \"tiled from CLOUD\")");
+  c.add_option("--places", s->places, "the places stored with the version for relocalization: a .places FILE, none, or auto "
+               "(the CLOUD's name with .places, as pl-map build writes it, when that file exists)")->type_name("FILE|none|auto");
+}
+
+}  // namespace pl::maps
