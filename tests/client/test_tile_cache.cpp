@@ -1,7 +1,7 @@
 // The disk cache through the SQLite toolkit it shares with the map store
 // (pl/schema/detail/sqlite.hpp): on real SQLite files, the cache and the store each give their own
 // name and fix in the same checks, and the cache now takes what the store takes (ANALYZE's tables).
-// The cache's own behaviour is tested in test_tile_client.cpp.
+// The cache's own behaviour is tested in test_disk_cache.cpp.
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
