@@ -491,4 +491,68 @@ const char* config_field_type(const ConfigField& field) {
   }
 }
 
+namespace {
+
+// The settings pl-localize sets itself from its options and the drive: the map source (set after
+// --set is applied) and the beams (which also decide whether the rings are handed over). --set
+// refuses them: it would be overruled silently, or contradict the drive.
+const char* owner_of_setting(const std::string& name) {
+  if (name == "localizer/scan/beams") return "--beams";
+  if (name == "localizer/scan/sensor_beams") return "the drive's sensor";
+  if (name == "tiles/server") return "--server";
+  if (name == "store_path") return "--db";
+  if (name == "tiles/map") return "--map";
+  return nullptr;
+}
+
+}  // namespace
+
+std::string setting_problem(const std::string& text) {
+  const auto eq = text.find('=');
+  if (eq == std::string::npos)
+    return "--set takes NAME=VALUE, got \"" + text + "\"; pl-localize --list-settings lists the names";
+  const std::string name = text.substr(0, eq);
+  if (const char* owner = owner_of_setting(name))
+    return "--set " + name + ": pl-localize sets it from " + owner + "; use that instead";
+  VehicleLocalizerConfig scratch;
+  const auto fields = config_fields(scratch);
+  const auto field = std::find_if(fields.begin(), fields.end(), [&](const auto& f) { return f.name == name; });
+  try {
+    set_config_field(scratch, name, text.substr(eq + 1));
+  } catch (const Error& e) {
+    // "--set X takes a number, got ..." names the setting already; an unknown name points at the list.
+    return field != fields.end() ? std::string("--set ") + e.what()
+                                 : std::string("--set: ") + e.what() + "; pl-localize --list-settings lists them all";
+  }
+  // Its range (a setting against another, such as min_range_m below max_range_m, is checked when
+  // the localizer is made, with every --set applied).
+  const std::string problem = config_field_range_problem(*field);
+  return problem.empty() ? "" : "--set " + problem;
+}
+
+void apply_settings(VehicleLocalizerConfig& cfg, const std::vector<std::string>& settings) {
+  for (const std::string& s : settings) {
+    const auto eq = s.find('=');
+    set_config_field(cfg, s.substr(0, eq), s.substr(eq + 1));
+  }
+}
+
+std::string settings_list(VehicleLocalizerConfig cfg, const std::vector<std::string>& settings) {
+  apply_settings(cfg, settings);
+  const auto fields = config_fields(cfg);
+  std::vector<std::string> lefts;
+  std::size_t width = 0;
+  for (const auto& f : fields) {
+    lefts.push_back(f.name + "=" + config_field_text(f));
+    width = std::max(width, lefts.back().size());
+  }
+  std::string list;
+  for (std::size_t i = 0; i < fields.size(); ++i) {
+    const char* owner = owner_of_setting(fields[i].name);
+    list += lefts[i] + std::string(width - lefts[i].size(), ' ') + "  " + fields[i].help + " (" + config_field_type(fields[i]) +
+            (owner ? std::string("; pl-localize sets it from ") + owner : std::string()) + ")\n";
+  }
+  return list;
+}
+
 }  // namespace pl::client

@@ -70,4 +70,18 @@ std::string config_field_text(const ConfigField& field);
 // What the setting takes: "a number", "a whole number", "a whole number >= 0", "true or false", "text".
 const char* config_field_type(const ConfigField& field);
 
+// pl-localize's --set NAME=VALUE and --list-settings over this table. The few settings pl-localize
+// sets itself from its options and the drive (the beams, the map source) are refused by --set,
+// naming the option to use, and marked in the list.
+//
+// What is wrong with one --set NAME=VALUE ("" when nothing): no '=', a name pl-localize sets
+// itself, a name that is not a setting, a value that does not parse or is out of range. Checked
+// against a scratch config: apply_settings applies the value.
+std::string setting_problem(const std::string& name_value);
+// The --set NAME=VALUE settings, each checked by setting_problem, in their order.
+void apply_settings(VehicleLocalizerConfig& cfg, const std::vector<std::string>& settings);
+// --list-settings: one line a setting, NAME=VALUE (cfg's, with `settings` applied), then what it
+// does and what it takes.
+std::string settings_list(VehicleLocalizerConfig cfg, const std::vector<std::string>& settings);
+
 }  // namespace pl::client
