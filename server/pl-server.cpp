@@ -15,21 +15,6 @@
 
 namespace {
 
-// HOST:PORT with HOST an IPv4 address, a name, or an IPv6 address in brackets ([::1]:8080).
-void parse_listen(const std::string& listen, pl::server::ServerConfig& cfg) {
-  const auto colon = listen.rfind(':');
-  long long port = -1;
-  std::string host = colon == std::string::npos ? "" : listen.substr(0, colon);
-  if (host.size() >= 2 && host.front() == '[' && host.back() == ']')
-    host = host.substr(1, host.size() - 2);
-  else if (host.find(':') != std::string::npos)
-    host.clear();  // an IPv6 address needs its brackets
-  if (host.empty() || !pl::parse_int(listen.substr(colon + 1), port) || port < 0 || port > 65535)
-    throw pl::Error("--listen takes HOST:PORT (127.0.0.1:8080, localhost:8080, [::1]:8080, 0.0.0.0:8080), got \"" + listen + "\"");
-  cfg.host = host;
-  cfg.port = static_cast<std::uint16_t>(port);
-}
-
 bool log_json = false;
 
 // A line of the server's own (not a request's): plain "pl-server: MSG", or with --log-json a JSON
@@ -49,33 +34,6 @@ void say(FILE* out, const char* level, const std::string& msg) {
     std::fprintf(out, "pl-server: %s\n", msg.c_str());
   }
   std::fflush(out);
-}
-
-// Adds the "ROLE TOKEN" lines of `path` to the store (hashed), once each.
-void add_tokens(const std::string& db, const std::string& path) {
-  auto store = pl::store::Store::open(db, false);
-  pl::LineReader reader(path);
-  std::string line;
-  std::size_t n = 0;
-  while (reader.next(line)) {
-    auto f = pl::split_fields(line, " \t\r");
-    auto role = f.size() == 2 ? pl::store::parse_role(f[0]) : std::nullopt;
-    if (!role) reader.fail("\"ROLE TOKEN\" with ROLE read, report, upload or admin", line);
-    const std::string token(f[1]);
-    if (!store.check_token(token)) {
-      try {
-        store.add_token(token, *role, "from " + path);
-      } catch (const pl::Error& e) {
-        // Registered already and not in force: revoked. The file does not bring it back.
-        if (std::string(e.what()).find("already registered") == std::string::npos) throw;
-        say(stderr, "warning", path + " line " + std::to_string(reader.line_number()) +
-                                   ": this token was revoked (pl-map token-list): not in force; remove it from the file");
-        continue;
-      }
-    }
-    ++n;
-  }
-  say(stderr, "info", std::to_string(n) + " tokens from " + path);
 }
 
 }  // namespace
@@ -129,7 +87,7 @@ int main(int argc, char** argv) {
 
   tool.body([&] {
     log_json = cfg.api.log_json;
-    parse_listen(listen, cfg);
+    pl::server::parse_listen(listen, cfg);
     cfg.api.blob_cache_bytes = cache_mb << 20;
     for (const auto& f : fleet_key_files)
       for (auto& k : pl::signing::load_public_keys(f)) cfg.api.fleet_keys.push_back(std::move(k));
@@ -137,7 +95,14 @@ int main(int argc, char** argv) {
       cfg.api.timestamp_key = std::make_shared<const pl::signing::SigningKey>(pl::signing::SigningKey::load(timestamp_key_file));
     cfg.access_log = !quiet;
     if (!pl::store::is_postgres_url(cfg.api.db) && !pl::file_exists(cfg.api.db)) throw pl::Error(cfg.api.db + ": no such map store (create one with pl-map tile)");
-    if (!tokens.empty()) add_tokens(cfg.api.db, tokens);
+    if (!tokens.empty()) {
+      auto store = pl::store::Store::open(cfg.api.db, false);
+      const std::size_t n = pl::store::add_token_file(store, tokens, [&](std::size_t line) {
+        say(stderr, "warning", tokens + " line " + std::to_string(line) +
+                                   ": this token was revoked (pl-map token-list): not in force; remove it from the file");
+      });
+      say(stderr, "info", std::to_string(n) + " tokens from " + tokens);
+    }
     if (!cfg.api.viewer_dir.empty() && !pl::file_exists(cfg.api.viewer_dir + "/index.html"))
       throw pl::Error("--viewer-dir " + cfg.api.viewer_dir + ": no index.html there (give the folder the build assembles, BUILD_DIR/viewer, "
                       "or the installed PREFIX/share/pointlocalization/viewer)");

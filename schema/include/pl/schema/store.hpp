@@ -301,4 +301,11 @@ class Store {
   std::unique_ptr<detail::StoreBackend> impl_;
 };
 
+// A token file (pl-server --tokens): lines of "ROLE TOKEN", ROLE read, report, upload or admin (blank
+// lines and '#' comments skipped). Adds each token to the store, hashed, unless it is in force
+// already; one revoked since stays revoked (the file does not bring it back) and is passed to
+// `revoked` by its line number. Returns the tokens in force from the file. Throws pl::Error naming
+// the file and line of a line that is not ROLE TOKEN.
+std::size_t add_token_file(Store& store, const std::string& path, const std::function<void(std::size_t line)>& revoked);
+
 }  // namespace pl::store

@@ -24,6 +24,10 @@ struct ServerConfig {
   bool access_log = true;
 };
 
+// HOST:PORT (pl-server --listen) into cfg.host and cfg.port, HOST an IPv4 address, a name, or an IPv6
+// address in brackets ([::1]:8080). Throws pl::Error saying what --listen takes otherwise.
+void parse_listen(const std::string& listen, ServerConfig& cfg);
+
 class Server {
  public:
   explicit Server(ServerConfig cfg);
