@@ -16,9 +16,9 @@
 
 #include "bench_util.hpp"
 #include "pl/common/cli.hpp"
-#include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/maps/loam.hpp"
+#include "pl/recordings/dataset.hpp"
 
 namespace {
 

@@ -42,8 +42,8 @@
 #include "pl/client/config_fields.hpp"
 #include "pl/client/localizer.hpp"
 #include "pl/client/store_tiles.hpp"
-#include "pl/common/dataset.hpp"
 #include "pl/common/scan.hpp"
+#include "pl/recordings/dataset.hpp"
 
 namespace {
 

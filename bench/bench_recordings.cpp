@@ -13,9 +13,9 @@
 #include <vector>
 
 #include "bench_util.hpp"
-#include "pl/common/bag.hpp"
 #include "pl/common/error.hpp"
-#include "pl/common/ros_msgs.hpp"
+#include "pl/recordings/bag.hpp"
+#include "pl/recordings/ros_msgs.hpp"
 
 namespace {
 

@@ -14,6 +14,7 @@ set -euo pipefail
 bin=${1:?usage: changes_town.sh BIN DIR [SEED]}
 dir=${2:?usage: changes_town.sh BIN DIR [SEED]}
 seed=${3:-1}
+root=$(cd "$(dirname "$0")/.." && pwd)
 mkdir -p "$dir"
 export PL_NO_PROGRESS=1 OMP_NUM_THREADS=1
 cd "$dir"
@@ -27,11 +28,11 @@ rm -f maps.sqlite*
 
 # The map service: the vehicles localize against it and send their reports to it.
 echo "report report-bench-token" > tokens.txt
-"$bin/pl-server" --db maps.sqlite --listen 127.0.0.1:0 --tokens tokens.txt >server.log 2>&1 &
-server_pid=$!
+source "$root/tools/start-server.sh"
+start_server server.log "$bin/pl-server" --db maps.sqlite --listen 127.0.0.1:0 --tokens tokens.txt
+server_pid=$SERVER_PID
 trap 'kill $server_pid 2>/dev/null || true' EXIT
-for _ in $(seq 100); do grep -q 'listening on' server.log && break; sleep 0.1; done
-url=$(grep -o 'http://127.0.0.1:[0-9]*' server.log | head -1)
+url=$SERVER_URL
 
 # localize NAME: localize drive NAME on the map's current version, without a report.
 localize() {

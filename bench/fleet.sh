@@ -179,34 +179,11 @@ start_varnish() {
   wait_url "$CACHE/healthz" || { say "varnishd did not come up: $(cat "$WORK/varnish/varnishd.log")"; exit 1; }
 }
 start_nginx() {
-  local port user=
+  local port
   port=$(free_port)
   rm -rf "$WORK/nginx"
-  mkdir -p "$WORK/nginx/cache" "$WORK/nginx/tmp"
-  sed -e "s|@LISTEN@|127.0.0.1:$port|" -e "s|@ORIGINS@|server 127.0.0.1:${RPORT[1]}; server 127.0.0.1:${RPORT[2]};|" \
-    -e "s|@CACHE_DIR@|$WORK/nginx/cache|" "$SRC/deploy/nginx/pointlocalization-cache.conf" >"$WORK/nginx/cache.conf"
-  if [ $ROOT = 1 ]; then
-    user="user nobody $(id -gn nobody);"
-    chown -R nobody "$WORK/nginx/cache" "$WORK/nginx/tmp"
-  fi
-  cat >"$WORK/nginx/nginx.conf" <<EOF
-$user
-daemon off;
-worker_processes 2;
-worker_rlimit_nofile 65536;
-pid $WORK/nginx/nginx.pid;
-error_log $WORK/nginx/error.log warn;
-events { worker_connections 16384; }
-http {
-  access_log off;
-  client_body_temp_path $WORK/nginx/tmp/body;
-  proxy_temp_path $WORK/nginx/tmp/proxy;
-  fastcgi_temp_path $WORK/nginx/tmp/fastcgi;
-  uwsgi_temp_path $WORK/nginx/tmp/uwsgi;
-  scgi_temp_path $WORK/nginx/tmp/scgi;
-  include $WORK/nginx/cache.conf;
-}
-EOF
+  "$SRC/deploy/nginx/local-cache.sh" "$WORK/nginx" "127.0.0.1:$port" \
+    "server 127.0.0.1:${RPORT[1]}; server 127.0.0.1:${RPORT[2]};" 16384 65536
   /usr/sbin/nginx -p "$WORK/nginx" -c "$WORK/nginx/nginx.conf" -e "$WORK/nginx/error.log" >"$WORK/nginx/stdout.log" 2>&1 &
   CACHE_PID=$!
   PIDS+=($!)

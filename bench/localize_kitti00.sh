@@ -43,16 +43,11 @@ if ! grep -qx "sweep ccw" "$work/$tag/done" 2>/dev/null; then
 fi
 echo "data ready in $(( $(date +%s) - t0 )) s: $("$bin/pl-map" info --db "$work/$tag/maps.sqlite" --map k00 | head -1)"
 
-"$bin/pl-server" --db "$work/$tag/maps.sqlite" --listen 127.0.0.1:0 --threads 1 >"$work/$tag/server.log" 2>&1 &
-server=$!
+source "$root/tools/start-server.sh"
+start_server "$work/$tag/server.log" "$bin/pl-server" --db "$work/$tag/maps.sqlite" --listen 127.0.0.1:0 --threads 1
+server=$SERVER_PID
 trap 'kill $server 2>/dev/null || true' EXIT
-url=""
-for _ in $(seq 100); do
-  url=$(grep -o 'http://127.0.0.1:[0-9]*' "$work/$tag/server.log" | head -1 || true)
-  [[ -n "$url" ]] && break
-  sleep 0.1
-done
-[[ -n "$url" ]] || { cat "$work/$tag/server.log"; exit 1; }
+url=$SERVER_URL
 
 run() {  # name drive extra-flags...
   local name=$1 drive=$2

@@ -12,6 +12,7 @@
 set -euo pipefail
 bin=${1:?usage: viewer.sh BIN_DIR WORK_DIR}
 work=${2:?usage: viewer.sh BIN_DIR WORK_DIR}
+root=$(cd "$(dirname "$0")/.." && pwd)
 mkdir -p "$work"
 work=$(cd "$work" && pwd)
 if [[ ! -x "$bin/bench_viewer" ]]; then
@@ -61,12 +62,11 @@ PY
 fi
 
 log=$work/viewer-server.log
-"$bin/pl-server" --db "$db" --listen 127.0.0.1:0 --quiet "${server_args[@]}" >"$log" 2>&1 &
-server=$!
+source "$root/tools/start-server.sh"
+start_server "$log" "$bin/pl-server" --db "$db" --listen 127.0.0.1:0 --quiet "${server_args[@]}"
+server=$SERVER_PID
 trap 'kill $server 2>/dev/null || true; wait $server 2>/dev/null || true' EXIT
-for _ in $(seq 100); do grep -q 'listening on' "$log" && break; sleep 0.1; done
-url=$(grep -o 'http://127.0.0.1:[0-9]*' "$log" | head -1)
-[[ -n "$url" ]] || { echo "viewer: pl-server did not start:"; cat "$log"; exit 1; }
+url=$SERVER_URL
 echo "pl-server $url on $(nproc) cores; $(chromium --version 2>/dev/null | head -1)"
 if [[ -n "${SCREENSHOTS:-}" ]]; then
   # At the ground-truth poses of scans 150, 450 and 700 of the drive (KITTI rows: R | t).

@@ -10,10 +10,11 @@
 #include "pl/client/run_log.hpp"
 #include "pl/client/vehicle_localizer.hpp"
 #include "pl/common/cli.hpp"
-#include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/progress.hpp"
 #include "pl/common/stats.hpp"
+#include "pl/recordings/dataset.hpp"
+#include "pl/recordings/dataset_cli.hpp"
 
 namespace cli = pl::cli;
 using pl::Error;

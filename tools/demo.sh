@@ -15,6 +15,7 @@ out=$(cd "$out" && pwd)
 mapping="$out/mapping"
 drive="$out/drive"
 
+source "$(dirname "$0")/start-server.sh"
 step() { printf '\n\033[1m-- %s\033[0m\n' "$*"; }
 
 step "pl-sim: the mapping drive (town loop, HDL-64E, epoch 0, no traffic)"
@@ -34,16 +35,10 @@ rm -f "$out/maps.sqlite" "$out/maps.sqlite-wal" "$out/maps.sqlite-shm"
 "$bin/pl-map" info --db "$out/maps.sqlite" --map town
 
 step "pl-server: the map over HTTP on 127.0.0.1"
-"$bin/pl-server" --db "$out/maps.sqlite" --listen 127.0.0.1:0 --threads 2 >"$out/server.log" 2>&1 &
-server=$!
+start_server "$out/server.log" "$bin/pl-server" --db "$out/maps.sqlite" --listen 127.0.0.1:0 --threads 2
+server=$SERVER_PID
 trap 'kill $server 2>/dev/null || true' EXIT
-url=""
-for _ in $(seq 100); do
-  url=$(grep -o 'http://127.0.0.1:[0-9]*' "$out/server.log" | head -1 || true)
-  [[ -n "$url" ]] && break
-  sleep 0.1
-done
-[[ -n "$url" ]] || { cat "$out/server.log"; exit 1; }
+url=$SERVER_URL
 echo "manifest: $(curl -sf "$url/v1/maps/town")"
 
 step "pl-localize: 16 of 64 beams, wheel encoders, tiles streamed from $url"

@@ -7,13 +7,14 @@
 #include <string>
 
 #include "pl/common/cli.hpp"
-#include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/progress.hpp"
 #include "pl/dataset/degrade_gps.hpp"
 #include "pl/dataset/gps_export.hpp"
 #include "pl/dataset/info.hpp"
 #include "pl/dataset/scan_stats.hpp"
+#include "pl/recordings/dataset.hpp"
+#include "pl/recordings/dataset_cli.hpp"
 
 namespace {
 

@@ -4,7 +4,6 @@
 #include <cstdio>
 #include <exception>
 
-#include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/output_path.hpp"
 #include "pl/common/text.hpp"
@@ -142,16 +141,20 @@ CLI::Validator number_check(const std::string& flag, const Bounds& bounds, bool 
   return CLI::Validator(check, interval(bounds));
 }
 
+CLI::Validator one_of(const std::string& flag, const std::vector<std::string>& words) {
+  auto check = [=](std::string& text) -> std::string {
+    for (const auto& w : words)
+      if (text == w) return "";
+    return flag + " takes " + or_list(words) + ", got \"" + text + "\"";
+  };
+  return CLI::Validator(check, "");
+}
+
 CLI::Option* choice(CLI::App& app, const std::string& flag, std::string& value, const std::string& help,
                     const std::vector<std::string>& choices) {
   std::string type;
   for (const auto& c : choices) type += (type.empty() ? "" : "|") + c;
-  auto check = [=](std::string& text) -> std::string {
-    for (const auto& c : choices)
-      if (text == c) return "";
-    return flag + " takes " + or_list(choices) + ", got \"" + text + "\"";
-  };
-  return app.add_option(flag, value, help)->check(CLI::Validator(check, ""))->type_name(type)->capture_default_str();
+  return app.add_option(flag, value, help)->check(one_of(flag, choices))->type_name(type)->capture_default_str();
 }
 
 CLI::Option* geo_option(CLI::App& app, const std::string& flag, std::string& text, const std::string& help) {
@@ -182,20 +185,6 @@ CLI::Option* output_file(CLI::App& app, const std::string& flag, std::string& pa
 CLI::Option* output_folder(CLI::App& app, const std::string& flag, std::string& path, const std::string& help) {
   auto check = [](std::string& p) { return output_folder_problem(p); };
   return app.add_option(flag, path, help)->check(CLI::Validator(check, ""))->type_name("DIR");
-}
-
-void topic_options(CLI::App& app, DatasetOptions& topics) {
-  app.add_option("--points-topic", topics.points_topic, "a recording's sensor_msgs/PointCloud2 topic (when it has several)")->type_name("TOPIC");
-  app.add_option("--odom-topic", topics.odom_topic, "a recording's nav_msgs/Odometry topic (when it has several)")->type_name("TOPIC");
-  app.add_option("--gps-topic", topics.gps_topic, "a recording's sensor_msgs/NavSatFix topic (when it has several)")->type_name("TOPIC");
-  app.add_option("--truth-topic", topics.truth_topic, "a recording's nav_msgs/Odometry topic holding the ground truth")->type_name("TOPIC");
-}
-
-CLI::Option* dataset_option(CLI::App& app, std::string& path, DatasetOptions& topics, const std::string& help) {
-  topic_options(app, topics);
-  return app.add_option("--dataset", path, help + ": a KITTI folder, a ROS 1 bag, a ROS 2 bag (folder or .db3) or an MCAP file")
-      ->required()
-      ->type_name("PATH");
 }
 
 }  // namespace cli

@@ -144,13 +144,31 @@ bool dir_exists(const std::string& path) {
   return ::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
 }
 
-void append_format(std::string& out, const char* fmt, ...) {
-  char buf[1024];
+namespace {
+std::string vformat_text(const char* fmt, va_list args) {
+  va_list again;
+  va_copy(again, args);
+  const int n = std::vsnprintf(nullptr, 0, fmt, args);
+  std::string text(n > 0 ? static_cast<std::size_t>(n) : 0, '\0');
+  if (n > 0) std::vsnprintf(text.data(), text.size() + 1, fmt, again);
+  va_end(again);
+  return text;
+}
+}  // namespace
+
+std::string format_text(const char* fmt, ...) {
   va_list args;
   va_start(args, fmt);
-  std::vsnprintf(buf, sizeof buf, fmt, args);
+  std::string text = vformat_text(fmt, args);
   va_end(args);
-  out += buf;
+  return text;
+}
+
+void append_format(std::string& out, const char* fmt, ...) {
+  va_list args;
+  va_start(args, fmt);
+  out += vformat_text(fmt, args);
+  va_end(args);
 }
 
 }  // namespace pl

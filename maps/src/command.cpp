@@ -1,9 +1,7 @@
 // pl-map's tool: its commands in the order --help lists them (each group in its own file,
-// command.hpp), and what the groups share: the --db option and printing to the output stream.
+// command.hpp), and what the groups share: the --db option.
 #include "pl/maps/command.hpp"
 
-#include <cstdarg>
-#include <cstdio>
 #include <iostream>
 
 #include "command.hpp"
@@ -22,18 +20,6 @@ CLI::Option* db_option(CLI::App& c, std::string& db, bool create) {
                       create ? "the map store: a SQLite file (created when missing) or a postgresql://USER@HOST/DB URL"
                              : "the map store: a SQLite file or a postgresql://USER@HOST/DB URL")
       ->required()->type_name("FILE|URL")->check(CLI::Validator(check, ""));
-}
-
-void print(std::ostream& out, const char* fmt, ...) {
-  va_list args, again;
-  va_start(args, fmt);
-  va_copy(again, args);
-  const int n = std::vsnprintf(nullptr, 0, fmt, args);
-  va_end(args);
-  std::string text(n > 0 ? static_cast<std::size_t>(n) : 0, '\0');
-  if (n > 0) std::vsnprintf(text.data(), text.size() + 1, fmt, again);
-  va_end(again);
-  out << text;
 }
 
 void add_commands(cli::Tool& tool, std::ostream& out) {

@@ -15,8 +15,6 @@ namespace pl::maps {
 
 // --db FILE of an existing store, or (`create`) of one that may be created.
 CLI::Option* db_option(CLI::App& c, std::string& db, bool create);
-// printf-style text written to `out`.
-void print(std::ostream& out, const char* fmt, ...) __attribute__((format(printf, 2, 3)));
 
 void add_build(cli::Tool& tool, std::ostream& out);
 void add_tile(cli::Tool& tool, std::ostream& out);

@@ -13,37 +13,10 @@
 #include "pl/maps/catalog.hpp"
 #include "pl/maps/gloam.hpp"
 #include "pl/maps/import.hpp"
+#include "pl/recordings/dataset_cli.hpp"
 #include "pl/schema/store.hpp"
 
 namespace pl::maps {
-
-namespace {
-
-// A word that names an enum value, mapped by CLI11 as it parses (CheckedTransformer). --help and the
-// error for any other word read as pl::cli::choice's: "--poses takes gt or lidar, got \"odometry\"".
-template <class E>
-CLI::Option* enum_choice(CLI::App& c, const std::string& flag, E& value, const std::string& help,
-                         const std::vector<std::pair<std::string, E>>& words) {
-  std::string type, listed, shown;
-  for (std::size_t i = 0; i < words.size(); ++i) {
-    type += (i == 0 ? "" : "|") + words[i].first;
-    listed += (i == 0 ? "" : i + 1 == words.size() ? " or " : ", ") + words[i].first;
-    if (words[i].second == value) shown = words[i].first;
-  }
-  auto known = [=](std::string& text) -> std::string {
-    for (const auto& w : words)
-      if (text == w.first) return "";
-    return flag + " takes " + listed + ", got \"" + text + "\"";
-  };
-  // transform() puts each validator first: the word is checked, then mapped.
-  return c.add_option(flag, value, help)
-      ->transform(CLI::CheckedTransformer(words).description(""))
-      ->transform(CLI::Validator(known, ""))
-      ->type_name(type)
-      ->default_str(shown);
-}
-
-}  // namespace
 
 void add_build(cli::Tool& tool, std::ostream& out) {
   struct State {
@@ -73,7 +46,7 @@ void add_build(cli::Tool& tool, std::ostream& out) {
   MapBuildConfig& merge = s->cfg.merge;
   cli::dataset_option(c, s->dataset, s->topics, "the drive to build the map from");
   cli::output_file(c, "--out", s->out, "where to write the map (PCD)")->required();
-  enum_choice(c, "--poses", s->cfg.poses, "gt: the dataset's ground truth; lidar: LiDAR odometry (without --gps started at "
+  cli::choice(c, "--poses", s->cfg.poses, "gt: the dataset's ground truth; lidar: LiDAR odometry (without --gps started at "
               "the first ground-truth pose when there is one)", {{"gt", PoseSource::GroundTruth}, {"lidar", PoseSource::Lidar}});
   c.add_flag("--gps", s->cfg.gps, "(with --poses lidar) a pose graph of keyframes over the odometry with the drive's GPS fixes "
              "(robust to multipath) sets the poses; the ground truth is not used");
@@ -86,7 +59,7 @@ void add_build(cli::Tool& tool, std::ostream& out) {
                    "scan), in the format of --traj-out: the drift and the correction from one run");
   cli::output_file(c, "--report", s->report, "write JSON: keyframes, GPS edges and outliers, GPS residuals, loops proposed/"
                    "accepted/rejected (and why), the mean error against ground truth before and after the graph, times");
-  enum_choice(c, "--deskew", s->cfg.deskew, "correct each scan for the motion during the sweep, timed by azimuth (auto: the "
+  cli::choice(c, "--deskew", s->cfg.deskew, "correct each scan for the motion during the sweep, timed by azimuth (auto: the "
               "LiDAR odometry's features for recordings without meta.json, and everything for drives with point_times/ "
               "such as pl-sim's; the merged map of a KITTI raw drive only with on, as there it did not help)",
               {{"auto", Deskew::Auto}, {"on", Deskew::On}, {"off", Deskew::Off}});
@@ -117,12 +90,12 @@ void add_tile(cli::Tool& tool, std::ostream& out) {
     if (bar) bar->finish();
     const auto number = static_cast<long long>(r.version.number);
     const std::string parent = r.version.parent ? "parent v" + std::to_string(*r.version.parent) : "no parent";
-    print(out, "map %s version %lld staged (%s): %zu tiles (%zu new or changed, %zu unchanged, %zu removed), %zu points, %s\n",
+    out << format_text("map %s version %lld staged (%s): %zu tiles (%zu new or changed, %zu unchanged, %zu removed), %zu points, %s\n",
           s->map.c_str(), number, parent.c_str(), r.tiles, r.changed, r.unchanged, r.removed, r.points,
           megabytes(r.bytes).c_str());
-    if (r.places > 0) print(out, "%zu places for relocalization from %s\n", r.places, s->cfg.places.c_str());
+    if (r.places > 0) out << format_text("%zu places for relocalization from %s\n", r.places, s->cfg.places.c_str());
     else out << "no places: the localizer can start and relocalize only near a given pose (pl-map build writes them)\n";
-    print(out, "publish it with: pl-map publish --db %s --map %s --version %lld\n", pl::store::display_name(s->db).c_str(),
+    out << format_text("publish it with: pl-map publish --db %s --map %s --version %lld\n", pl::store::display_name(s->db).c_str(),
           s->map.c_str(), number);
     return 0;
   });

@@ -9,6 +9,7 @@
 
 #include "command.hpp"
 #include "pl/common/error.hpp"
+#include "pl/common/text.hpp"
 #include "pl/maps/catalog.hpp"
 #include "pl/maps/change_detect.hpp"
 #include "pl/maps/map_update.hpp"
@@ -49,7 +50,7 @@ void add_changes(cli::Tool& tool, std::ostream& out) {
     const ChangeSummary s = detect_changes(reports, version, o->rule);
     std::size_t candidates = 0;
     for (const auto& t : s.tiles) candidates += t.candidate;
-    print(out, "%zu reports, %zu independent passes against v%lld; %zu tiles seen, %zu change candidates "
+    out << format_text("%zu reports, %zu independent passes against v%lld; %zu tiles seen, %zu change candidates "
           "(%d of the last %d passes agreeing on %zu voxels or more)\n",
           s.reports, s.used, version, s.tiles.size(), candidates, o->rule.min_drives, o->rule.window, o->rule.min_cells);
     if (!o->out.empty()) {
@@ -92,19 +93,19 @@ void add_update(cli::Tool& tool, std::ostream& out) {
     const MapUpdateResult r = update_map(store, o->map, reports, o->cfg);
     std::size_t candidates = 0;
     for (const auto& t : r.summary.tiles) candidates += t.candidate;
-    print(out, "%zu reports, %zu independent passes against v%lld; %zu change candidates\n", r.summary.reports, r.summary.used,
+    out << format_text("%zu reports, %zu independent passes against v%lld; %zu change candidates\n", r.summary.reports, r.summary.used,
           static_cast<long long>(r.parent), candidates);
     if (!r.version) {
-      print(out, "nothing to update: no tile changed (v%lld stays current)\n", static_cast<long long>(r.parent));
+      out << format_text("nothing to update: no tile changed (v%lld stays current)\n", static_cast<long long>(r.parent));
       return 0;
     }
-    for (const auto& t : r.tiles) print(out, "~ %d %d: %s\n", t.key.tx, t.key.ty, t.reason().c_str());
+    for (const auto& t : r.tiles) out << format_text("~ %d %d: %s\n", t.key.tx, t.key.ty, t.reason().c_str());
     const auto number = static_cast<long long>(r.version->number);
-    print(out, "map %s version %lld staged (parent v%lld): %zu tiles rebuilt, %zu keep their bytes\n", o->map.c_str(), number,
+    out << format_text("map %s version %lld staged (parent v%lld): %zu tiles rebuilt, %zu keep their bytes\n", o->map.c_str(), number,
           static_cast<long long>(r.parent), r.tiles.size(), r.unchanged);
     if (o->publish) {
       publish_version(store, o->map, r.version->number, key ? &*key : nullptr);
-      print(out, "map %s: version %lld is current\n", o->map.c_str(), number);
+      out << format_text("map %s: version %lld is current\n", o->map.c_str(), number);
     }
     return 0;
   });

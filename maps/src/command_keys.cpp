@@ -36,9 +36,9 @@ void add_token_commands(cli::Tool& tool, std::ostream& out) {
   add.add_option("--note", s->note, "what or who the token is for");
   CLI::App& list = tool.command("token-list", "the tokens: id, role, created, revoked, note (never a token)", [s, &out] {
     auto store = pl::store::Store::open(s->db, false);
-    print(out, "%-6s %-7s %-25s %-25s %s\n", "id", "role", "created", "revoked", "note");
+    out << format_text("%-6s %-7s %-25s %-25s %s\n", "id", "role", "created", "revoked", "note");
     for (const auto& t : store.list_tokens())
-      print(out, "%-6lld %-7s %-25s %-25s %s\n", static_cast<long long>(t.id), pl::store::role_name(t.role), t.created.c_str(),
+      out << format_text("%-6lld %-7s %-25s %-25s %s\n", static_cast<long long>(t.id), pl::store::role_name(t.role), t.created.c_str(),
             t.revoked ? t.revoked->c_str() : "-", pl::printable(t.note).c_str());
     return 0;
   });
@@ -47,7 +47,7 @@ void add_token_commands(cli::Tool& tool, std::ostream& out) {
     auto store = pl::store::Store::open(s->db, false);
     if (!store.revoke_token(s->id))
       throw pl::Error("token " + std::to_string(s->id) + ": no such token, or revoked already (pl-map token-list --db " + pl::store::display_name(s->db) + ")");
-    print(out, "token %lld revoked\n", static_cast<long long>(s->id));
+    out << format_text("token %lld revoked\n", static_cast<long long>(s->id));
     return 0;
   });
   db_option(revoke, s->db, false);
@@ -66,7 +66,7 @@ void add_key_gen(cli::Tool& tool, std::ostream& out) {
       throw pl::Error(priv + " or " + pub + " exists already: a key is never written over (move the old pair away, or pick another --out)");
     key.save(priv);
     pl::signing::save_public_key(key.public_key(), pub);
-    print(out, "key %s: private key %s (keep it where versions are published; never on a vehicle), public key %s "
+    out << format_text("key %s: private key %s (keep it where versions are published; never on a vehicle), public key %s "
           "(pl-localize --fleet-key, pl-server --fleet-key)\n",
           pl::signing::key_id(key.public_key()).c_str(), priv.c_str(), pub.c_str());
     return 0;

@@ -47,7 +47,7 @@ void add_store_commands(cli::Tool& tool, std::ostream& out) {
     need_map(store, s->map);
     publish_version(store, s->map, s->version, key ? &*key : nullptr);
     const std::string how = key ? ", signed by key " + pl::signing::key_id(key->public_key()) : std::string();
-    print(out, "map %s: version %lld is current%s\n", s->map.c_str(), static_cast<long long>(s->version), how.c_str());
+    out << format_text("map %s: version %lld is current%s\n", s->map.c_str(), static_cast<long long>(s->version), how.c_str());
     return 0;
   });
   cli::number(publish, "--version", s->version, "the staged version to publish", cli::at_least(1))->required()->default_str("");
@@ -62,7 +62,7 @@ void add_store_commands(cli::Tool& tool, std::ostream& out) {
     const auto v = rollback_version(store, s->map, key ? &*key : nullptr);
     const auto info = store.find_version(s->map, v);
     const std::string how = key ? ", signed by key " + pl::signing::key_id(key->public_key()) : std::string();
-    print(out, "map %s: rolled back, version %lld is current (the content of version %lld)%s\n", s->map.c_str(),
+    out << format_text("map %s: rolled back, version %lld is current (the content of version %lld)%s\n", s->map.c_str(),
           static_cast<long long>(v), static_cast<long long>(info->parent.value_or(0)), how.c_str());
     return 0;
   });
@@ -89,7 +89,7 @@ void add_push(cli::Tool& tool, std::ostream& out) {
   auto o = std::make_shared<PushOptions>();
   CLI::App& c = tool.command("push", "upload a local version to a server (only the tiles it lacks), then publish it there", [o, &out] {
     const auto r = push_version(*o);
-    print(out, "pushed map %s v%lld to %s as v%lld: %zu tiles, %zu uploaded (%s), %zu already there, %zu deleted; published\n",
+    out << format_text("pushed map %s v%lld to %s as v%lld: %zu tiles, %zu uploaded (%s), %zu already there, %zu deleted; published\n",
           o->map.c_str(), static_cast<long long>(o->version), o->server.c_str(), static_cast<long long>(r.remote_version),
           r.tiles, r.uploaded, megabytes(static_cast<double>(r.bytes)).c_str(), r.skipped, r.deleted);
     return 0;
@@ -120,14 +120,14 @@ void add_migrate(cli::Tool& tool, std::ostream& out) {
       bars.update(stage, done, total);
     });
     bars.finish();
-    print(out, "copied %s to %s: %lld maps, %lld versions, %lld tiles, %lld blobs (%s), %lld places, %lld signatures, "
+    out << format_text("copied %s to %s: %lld maps, %lld versions, %lld tiles, %lld blobs (%s), %lld places, %lld signatures, "
           "%lld tokens, %lld upload log entries, %lld change reports\n",
           pl::store::display_name(s->from).c_str(), pl::store::display_name(s->to).c_str(), static_cast<long long>(r.maps),
           static_cast<long long>(r.versions), static_cast<long long>(r.tiles), static_cast<long long>(r.blobs),
           megabytes(static_cast<double>(r.blob_bytes)).c_str(), static_cast<long long>(r.places),
           static_cast<long long>(r.signatures), static_cast<long long>(r.tokens), static_cast<long long>(r.log_entries),
           static_cast<long long>(r.reports));
-    print(out, "content digest %s: the same on both\n", r.digest.c_str());
+    out << format_text("content digest %s: the same on both\n", r.digest.c_str());
     return 0;
   });
   auto exists = [](std::string& path) -> std::string {
@@ -158,10 +158,10 @@ void add_check(cli::Tool& tool, std::ostream& out) {
     std::size_t versions = 0;
     for (const auto& m : maps) versions += store.list_versions(m.name).size();
     const std::optional<std::string> digest = pl::store::checked_digest(*db);
-    print(out, "%s: %zu maps, %zu versions, %s\n", store.path().c_str(), maps.size(), versions,
+    out << format_text("%s: %zu maps, %zu versions, %s\n", store.path().c_str(), maps.size(), versions,
           digest ? "sound" : "DAMAGED: restore it from a backup, or rebuild it with pl-map");
     if (!digest) return 1;
-    print(out, "content digest %s\n", digest->c_str());
+    out << format_text("content digest %s\n", digest->c_str());
     return 0;
   });
   db_option(c, *db, false);

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdarg>
 #include <cstdio>
 #include <fstream>
 #include <vector>
@@ -12,6 +11,7 @@
 #include "pl/common/cloud_io.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/scan.hpp"
+#include "pl/common/text.hpp"
 #include "pl/maps/import.hpp"
 #include "pl/registration/place_index.hpp"
 
@@ -23,16 +23,6 @@ namespace {
 // their own times (point_times/: pl-sim's swept scans, a driver's per-point times).
 bool deskews(const GloamConfig& cfg, const Dataset& ds) {
   return cfg.deskew == Deskew::On || (cfg.deskew == Deskew::Auto && (!ds.has_meta_file || ds.has_point_times()));
-}
-
-std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
-std::string format(const char* fmt, ...) {
-  char buf[1024];
-  va_list args;
-  va_start(args, fmt);
-  std::vsnprintf(buf, sizeof buf, fmt, args);
-  va_end(args);
-  return buf;
 }
 
 // The observer's calls, each optional.
@@ -138,8 +128,9 @@ Trajectory lidar_poses(const Dataset& ds, const GloamConfig& cfg, const std::vec
   }
   placed.times = ds.times;
   std::sort(ms.begin(), ms.end());
-  tell.log(format("lidar odometry: %zu scans (deskew %s), median %.1f ms a scan, %zu degenerate%s", ds.size(), lc.deskew ? "on" : "off",
-                  ms[ms.size() / 2], degenerate, start_at_truth ? ", started at the first ground-truth pose" : ", in the first scan's frame"));
+  tell.log(format_text("lidar odometry: %zu scans (deskew %s), median %.1f ms a scan, %zu degenerate%s", ds.size(),
+                       lc.deskew ? "on" : "off", ms[ms.size() / 2], degenerate,
+                       start_at_truth ? ", started at the first ground-truth pose" : ", in the first scan's frame"));
   report["odometry"] = {{"median_ms", ms[ms.size() / 2]}, {"degenerate", degenerate}, {"deskew", lc.deskew}};
   if (ds.has_ground_truth()) {
     // The odometry's error as if it had started at the first ground-truth pose.
@@ -165,10 +156,11 @@ Trajectory lidar_poses(const Dataset& ds, const GloamConfig& cfg, const std::vec
       const std::size_t keyframes = graph.keyframes().size();
       const LoopReport lr = close_loops(graph, keyframe_clouds, cfg.loop,
                                         [&](std::size_t done, std::size_t) { tell.progress("loop closure", done, keyframes); });
-      tell.log(format("loop closure: %zu queries, proposed %zu by position and %zu by place; %zu accepted, %zu rejected; "
+      tell.log(
+          format_text("loop closure: %zu queries, proposed %zu by position and %zu by place; %zu accepted, %zu rejected; "
                       "loop residual median %.3f m -> %.3f m; %.1f s verifying",
-                      lr.queries, lr.proposed_by_position, lr.proposed_by_descriptor, lr.accepted, lr.rejected, lr.residual_before_m,
-                      lr.residual_after_m, lr.verify_ms / 1000.0));
+                      lr.queries, lr.proposed_by_position, lr.proposed_by_descriptor, lr.accepted, lr.rejected,
+                      lr.residual_before_m, lr.residual_after_m, lr.verify_ms / 1000.0));
       report["loops"] = loop_report_json(lr, graph);
     }
     placed.poses = graph.poses();
@@ -177,7 +169,8 @@ Trajectory lidar_poses(const Dataset& ds, const GloamConfig& cfg, const std::vec
     const Pose to_graph = placed.poses.front() * odometry_out.poses.front().inverse();
     for (Pose& p : odometry_out.poses) p = to_graph * p;
     const PoseGraphReport r = graph.report();
-    tell.log(format("pose graph: %zu keyframes, %zu GPS edges (%zu outliers), %zu loop edges, GPS residual RMS %.3f m -> %.3f m, "
+    tell.log(
+        format_text("pose graph: %zu keyframes, %zu GPS edges (%zu outliers), %zu loop edges, GPS residual RMS %.3f m -> %.3f m, "
                     "%d solves, %d iterations, %.0f ms (%s)",
                     r.keyframes, r.gps_edges, r.gps_outliers, r.loop_edges, r.gps_rms_before_m, r.gps_rms_after_m, r.solves,
                     r.iterations, r.solve_ms, r.termination.c_str()));
@@ -185,8 +178,8 @@ Trajectory lidar_poses(const Dataset& ds, const GloamConfig& cfg, const std::vec
   }
   const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   report["trajectory_ms_per_scan"] = 1000.0 * total_s / static_cast<double>(ds.size());
-  tell.log(format("trajectory: %.1f ms a scan in all (odometry%s%s)", 1000.0 * total_s / static_cast<double>(ds.size()),
-                  cfg.gps ? " + GPS" : "", cfg.loops ? " + loops" : ""));
+  tell.log(format_text("trajectory: %.1f ms a scan in all (odometry%s%s)", 1000.0 * total_s / static_cast<double>(ds.size()),
+                       cfg.gps ? " + GPS" : "", cfg.loops ? " + loops" : ""));
   if (ds.has_ground_truth()) report["mean_error_after_m"] = mean_error(placed);
   return placed;
 }
@@ -255,7 +248,8 @@ std::string write_gloam_outputs(const GloamResult& r, const std::string& map_pcd
   if (!odometry.empty()) {
     if (r.odometry.poses.empty()) throw Error("--odometry-out needs --poses lidar (with --poses gt no odometry runs)");
     write_poses(odometry, r.odometry);
-    out += format("wrote %s: %zu LiDAR poses (lidar odometry, before any pose graph), one per scan\n", odometry.c_str(), r.odometry.poses.size());
+    out += format_text("wrote %s: %zu LiDAR poses (lidar odometry, before any pose graph), one per scan\n", odometry.c_str(),
+                       r.odometry.poses.size());
   }
   if (!report.empty()) {
     std::ofstream f(report);
@@ -265,11 +259,11 @@ std::string write_gloam_outputs(const GloamResult& r, const std::string& map_pcd
   }
   if (!trajectory.empty()) {
     write_poses(trajectory, r.poses);
-    out += format("wrote %s: %zu LiDAR poses (%s), one per scan\n", trajectory.c_str(), r.poses.size(), r.source.c_str());
+    out += format_text("wrote %s: %zu LiDAR poses (%s), one per scan\n", trajectory.c_str(), r.poses.size(), r.source.c_str());
   }
   write_pcd(map_pcd, r.map.points, r.map.intensity, r.origin);
-  out += format("wrote %s: %zu points from %zu scans at %.2f m voxels\n", map_pcd.c_str(), r.map.points.size(), r.merged_scans,
-                r.voxel_m);
+  out += format_text("wrote %s: %zu points from %zu scans at %.2f m voxels\n", map_pcd.c_str(), r.map.points.size(),
+                     r.merged_scans, r.voxel_m);
   if (!r.map.places.empty()) {
     const std::string path = places_path(map_pcd);
     const std::string bytes = r.map.places.encode();
@@ -280,8 +274,8 @@ std::string write_gloam_outputs(const GloamResult& r, const std::string& map_pcd
       if (!f) throw Error(partial + ": cannot write the places");
     }
     if (std::rename(partial.c_str(), path.c_str()) != 0) throw Error(path + ": cannot write the places (rename failed)");
-    out += format("wrote %s: %zu places for relocalization (pl-map tile stores them with the map)\n", path.c_str(),
-                  r.map.places.places().size());
+    out += format_text("wrote %s: %zu places for relocalization (pl-map tile stores them with the map)\n", path.c_str(),
+                       r.map.places.places().size());
   }
   return out;
 }

@@ -1,5 +1,5 @@
 // Between roscpp's message classes and PointLocalization's types. Incoming messages go through the
-// same decoders that read recordings (pl/common/ros_msgs.hpp): the message is serialized back to its
+// same decoders that read recordings (pl/recordings/ros_msgs.hpp): the message is serialized back to its
 // ROS 1 bytes and decoded there, so a scan, an odometry pose or a fix means exactly the same to the
 // node as to pl-localize reading the same messages from a bag (the test compares the two). The copy
 // costs about a millisecond for a 64-beam cloud.
@@ -21,7 +21,7 @@
 #include <geometry_msgs/Pose.h>
 #include <geometry_msgs/Transform.h>
 
-#include "pl/common/ros_msgs.hpp"
+#include "pl/recordings/ros_msgs.hpp"
 
 namespace pl::ros1 {
 

@@ -24,9 +24,9 @@
 #include "params.hpp"
 #include "pl/client/config_fields.hpp"
 #include "pl/client/vehicle_localizer.hpp"
-#include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/geo.hpp"
+#include "pl/recordings/dataset.hpp"
 
 namespace pl::ros1 {
 namespace {

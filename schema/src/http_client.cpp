@@ -15,6 +15,7 @@
 
 #include "http_response.hpp"
 #include "pl/common/error.hpp"
+#include "pl/schema/detail/tls_client.hpp"
 
 namespace beast = boost::beast;
 namespace http = beast::http;
@@ -114,19 +115,7 @@ HttpClient::HttpClient(const std::string& base, const HttpOptions& options)
     throw Error("server URL " + base + ": expected https://HOST[:PORT]");
   if (!tls_ && !options_.insecure_http && !is_loopback_host(host_))
     throw Error("server URL " + base + ": plain HTTP to another machine sends the map and the token in clear: use https:// (with --ca-file naming the fleet's CA), or pass --insecure-http to allow it");
-  if (tls_) {
-    impl_->tls.emplace(net::ssl::context::tls_client);
-    SSL_CTX_set_min_proto_version(impl_->tls->native_handle(), TLS1_2_VERSION);
-    beast::error_code ec;
-    if (options_.ca_file.empty())
-      impl_->tls->set_default_verify_paths(ec);
-    else
-      impl_->tls->load_verify_file(options_.ca_file, ec);
-    if (ec)
-      throw Error((options_.ca_file.empty() ? std::string("the system's CA certificates") : "CA file " + options_.ca_file) +
-                  ": cannot be loaded (" + ec.message() + "): it must be a readable PEM file of CA certificates");
-    impl_->tls->set_verify_mode(net::ssl::verify_peer);
-  }
+  if (tls_) impl_->tls.emplace(detail::tls_client_context(options_.ca_file));
 }
 
 HttpClient::~HttpClient() { disconnect(); }

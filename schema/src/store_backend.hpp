@@ -1,7 +1,7 @@
 // The engine behind a Store: SQLite (store_internal.hpp's SqliteStore, a file path) or PostgreSQL
 // (store_pg.hpp's PgStore, a postgresql:// URL). Store's public calls forward here one to one; every promise store.hpp makes
 // (arguments checked, messages, ordering, unknown maps, staged-only writes, hashes checked on read,
-// the append-only log) is each backend's to keep, and tests/schema/test_store.cpp holds both to it.
+// the append-only log) is each backend's to keep, and tests/schema/test_store_*.cpp holds both to it.
 // Private to pl_schema.
 #pragma once
 

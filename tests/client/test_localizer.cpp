@@ -16,9 +16,9 @@
 
 #include "pl/client/localizer.hpp"
 #include "pl/client/store_tiles.hpp"
-#include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/pose.hpp"
+#include "pl/recordings/dataset.hpp"
 #include "map_tiles.hpp"
 #include "scene.hpp"
 #include "server_process.hpp"

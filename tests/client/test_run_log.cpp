@@ -14,8 +14,8 @@
 
 #include "error_of.hpp"
 #include "pl/client/run_log.hpp"
-#include "pl/common/bag.hpp"
 #include "pl/common/pose.hpp"
+#include "pl/recordings/bag.hpp"
 #include "test_util.hpp"
 
 namespace {

@@ -23,7 +23,6 @@ WHICH=${2:-both}
 case $WHICH in varnish) TIERS=(varnish) ;; nginx) TIERS=(nginx) ;; both) TIERS=(varnish nginx) ;; *) usage ;; esac
 SRC=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
 VCL=$SRC/deploy/varnish/pointlocalization.vcl
-NGINX_SITE=$SRC/deploy/nginx/pointlocalization-cache.conf
 
 for tool in "$BIN/pl-server" "$BIN/pl-map"; do
   [ -x "$tool" ] || { echo "cache_tier: $tool is missing: build it first" >&2; exit 2; }
@@ -287,34 +286,7 @@ start_varnish() {
 start_nginx() {
   local port
   port=$(free_port)
-  mkdir -p "$D/nginx/cache" "$D/nginx/tmp"
-  local origins="server 127.0.0.1:$RELAY_PORT;"
-  sed -e "s|@LISTEN@|127.0.0.1:$port|" -e "s|@ORIGINS@|$origins|" -e "s|@CACHE_DIR@|$D/nginx/cache|" \
-    "$NGINX_SITE" >"$D/nginx/cache.conf"
-  local user=
-  if [ $ROOT = 1 ]; then
-    # Started as root, nginx's workers become an unprivileged user; they write the cache and the
-    # bodies of uploads being relayed.
-    user="user nobody $(id -gn nobody);"
-    chown -R nobody "$D/nginx/cache" "$D/nginx/tmp"
-  fi
-  cat >"$D/nginx/nginx.conf" <<EOF
-$user
-daemon off;
-worker_processes 2;
-pid $D/nginx/nginx.pid;
-error_log $D/nginx/error.log warn;
-events { worker_connections 1024; }
-http {
-  access_log off;
-  client_body_temp_path $D/nginx/tmp/body;
-  proxy_temp_path $D/nginx/tmp/proxy;
-  fastcgi_temp_path $D/nginx/tmp/fastcgi;
-  uwsgi_temp_path $D/nginx/tmp/uwsgi;
-  scgi_temp_path $D/nginx/tmp/scgi;
-  include $D/nginx/cache.conf;
-}
-EOF
+  "$SRC/deploy/nginx/local-cache.sh" "$D/nginx" "127.0.0.1:$port" "server 127.0.0.1:$RELAY_PORT;" 1024
   "$NGINX" -t -q -p "$D/nginx" -c "$D/nginx/nginx.conf" -e "$D/nginx/error.log" 2>"$D/nginx/t.log" ||
     die "nginx refuses the configuration: $(cat "$D/nginx/t.log" "$D/nginx/error.log" 2>/dev/null)"
   "$NGINX" -p "$D/nginx" -c "$D/nginx/nginx.conf" -e "$D/nginx/error.log" >"$D/nginx/stdout.log" 2>&1 &

@@ -33,8 +33,8 @@
 #include <utility>
 #include <vector>
 
-#include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
+#include "pl/recordings/dataset.hpp"
 
 namespace fs = std::filesystem;
 

@@ -10,8 +10,8 @@
 #include <string_view>
 #include <vector>
 
-#include "pl/common/bag.hpp"
 #include "pl/common/error.hpp"
+#include "pl/recordings/bag.hpp"
 
 namespace {
 

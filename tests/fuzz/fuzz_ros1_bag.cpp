@@ -12,8 +12,8 @@
 #include <string_view>
 #include <vector>
 
-#include "pl/common/bag.hpp"
 #include "pl/common/error.hpp"
+#include "pl/recordings/bag.hpp"
 
 namespace {
 

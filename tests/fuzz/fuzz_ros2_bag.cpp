@@ -25,8 +25,8 @@
 #include <string_view>
 #include <vector>
 
-#include "pl/common/bag.hpp"
 #include "pl/common/error.hpp"
+#include "pl/recordings/bag.hpp"
 #include "sqlite_input.hpp"
 
 namespace fs = std::filesystem;

@@ -1,4 +1,4 @@
-// Fuzz target: the ROS message decoders (common/src/ros_msgs.cpp) on any bytes, in either encoding.
+// Fuzz target: the ROS message decoders (recordings/src/ros_msgs.cpp) on any bytes, in either encoding.
 // The first byte picks the message and the encoding. Refusing with pl::Error is the decoder's job; a
 // cloud that comes back must be consistent: finite points, one ring and one time per point when the
 // cloud has them, times within a second of the stamp, no more points than the bytes could hold.
@@ -8,7 +8,7 @@
 #include <string_view>
 
 #include "pl/common/error.hpp"
-#include "pl/common/ros_msgs.hpp"
+#include "pl/recordings/ros_msgs.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;

@@ -1,15 +1,15 @@
 # The file readers' fuzz targets: PCD, PLY and KITTI .bin clouds (common/src/cloud_io.cpp, scan.cpp)
-# and dataset folders (common/src/dataset.cpp, meta.cpp, text.cpp). Their dictionaries are
+# and dataset folders (recordings/src/dataset.cpp, common/src/meta.cpp, text.cpp). Their dictionaries are
 # tests/fuzz/NAME.dict.
 pl_add_fuzzer(pcd SOURCES fuzz_pcd.cpp LIBS pl_common)
 pl_add_fuzzer(ply SOURCES fuzz_ply.cpp LIBS pl_common)
 pl_add_fuzzer(kitti_bin SOURCES fuzz_kitti_bin.cpp LIBS pl_common)
-pl_add_fuzzer(dataset SOURCES fuzz_dataset.cpp LIBS pl_common)
-# Recordings (common/src/bag_*.cpp) and the ROS messages in them (common/src/ros_msgs.cpp).
-pl_add_fuzzer(ros1_bag SOURCES fuzz_ros1_bag.cpp LIBS pl_common)
-pl_add_fuzzer(ros2_bag SOURCES fuzz_ros2_bag.cpp LIBS pl_common)
-pl_add_fuzzer(mcap SOURCES fuzz_mcap.cpp LIBS pl_common)
-pl_add_fuzzer(ros_msgs SOURCES fuzz_ros_msgs.cpp LIBS pl_common)
+pl_add_fuzzer(dataset SOURCES fuzz_dataset.cpp LIBS pl_recordings)
+# Recordings (recordings/src/bag_*.cpp) and the ROS messages in them (recordings/src/ros_msgs.cpp).
+pl_add_fuzzer(ros1_bag SOURCES fuzz_ros1_bag.cpp LIBS pl_recordings)
+pl_add_fuzzer(ros2_bag SOURCES fuzz_ros2_bag.cpp LIBS pl_recordings)
+pl_add_fuzzer(mcap SOURCES fuzz_mcap.cpp LIBS pl_recordings)
+pl_add_fuzzer(ros_msgs SOURCES fuzz_ros_msgs.cpp LIBS pl_recordings)
 
 target_sources(make_fuzz_seeds PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/seeds_readers.cpp)
 find_package(liblzf CONFIG REQUIRED)  # PCD seeds in binary_compressed

@@ -11,10 +11,10 @@
 #include <random>
 #include <sstream>
 
-#include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/stats.hpp"
 #include "pl/maps/loam.hpp"
+#include "pl/recordings/dataset.hpp"
 #include "test_util.hpp"
 
 using pl::test::TempDir;

@@ -12,11 +12,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/maps/loop_closure.hpp"
-#include "pl/registration/place_descriptor.hpp"
 #include "pl/maps/pose_graph.hpp"
+#include "pl/recordings/dataset.hpp"
+#include "pl/registration/place_descriptor.hpp"
 #include "test_util.hpp"
 
 using pl::maps::Information6;

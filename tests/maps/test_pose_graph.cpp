@@ -9,11 +9,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/geo.hpp"
 #include "pl/common/pose.hpp"
 #include "pl/maps/pose_graph.hpp"
+#include "pl/recordings/dataset.hpp"
 #include "test_util.hpp"
 
 using pl::maps::GpsEdge;

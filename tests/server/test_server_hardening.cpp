@@ -150,7 +150,7 @@ TEST(ServerHardening, InvalidUtf8InTheRequestIsAnsweredWithValidJsonAndTheServer
   HttpClient http(server.url());
   auto r = http.request("POST", "/v1/maps", "{\"name\": \"\xff\xfe\"}", {{"Authorization", "Bearer " + pl::test::kAdminToken}});
   EXPECT_EQ(r.status, 400);
-  EXPECT_NO_THROW((void)json::parse(r.body));
+  EXPECT_TRUE(json::accept(r.body)) << r.body;
   expect_healthy(server);
 }
 
@@ -168,7 +168,7 @@ TEST(ServerHardening, AnUnexpectedFailureIsA500WithARequestIdAndTheServerGoesOn)
   std::string id = header_of(raw, "X-Request-Id");
   ASSERT_FALSE(id.empty());
   EXPECT_NE(body_of(raw).find(id), std::string::npos) << raw;
-  EXPECT_NO_THROW((void)json::parse(body_of(raw)));
+  EXPECT_TRUE(json::accept(body_of(raw))) << raw;
   expect_healthy(server);
   EXPECT_NE(server.output().find("request " + id), std::string::npos) << server.output();
 }

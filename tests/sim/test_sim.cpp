@@ -5,9 +5,9 @@
 #include <filesystem>
 #include <map>
 
-#include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/stats.hpp"
+#include "pl/recordings/dataset.hpp"
 #include "pl/sim/lidar.hpp"
 #include "pl/sim/sensors.hpp"
 #include "pl/sim/simulate.hpp"

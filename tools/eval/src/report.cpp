@@ -1,22 +1,13 @@
 #include "pl/eval/report.hpp"
 
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
+
+#include "pl/common/text.hpp"
 
 namespace pl::eval {
 
 namespace {
-
-std::string line(const char* format, ...) __attribute__((format(printf, 1, 2)));
-std::string line(const char* format, ...) {
-  char buf[512];
-  va_list args;
-  va_start(args, format);
-  std::vsnprintf(buf, sizeof buf, format, args);
-  va_end(args);
-  return std::string(buf) + "\n";
-}
 
 nlohmann::ordered_json component_json(const ComponentError& c) { return {{"mean_abs", c.mean_abs}, {"rmse", c.rmse}}; }
 
@@ -60,26 +51,26 @@ std::string ape_text(const ApeResult& r, const std::string& est_path, const std:
   o += "Absolute position error (APE, translation, metres)\n";
   o += "  estimate      " + est_path + "\n";
   o += "  ground truth  " + gt_path + "\n";
-  o += line("  alignment     %s%s", alignment_name(r.alignment),
-            r.alignment == Alignment::None  ? " (raw poses)"
-            : r.alignment == Alignment::Se3 ? " (rigid: rotation + translation, no scale)"
-                                            : " (similarity: rotation + translation + uniform scale)");
+  append_format(o, "  alignment     %s%s\n", alignment_name(r.alignment),
+                r.alignment == Alignment::None  ? " (raw poses)"
+                : r.alignment == Alignment::Se3 ? " (rigid: rotation + translation, no scale)"
+                                                : " (similarity: rotation + translation + uniform scale)");
   if (r.alignment == Alignment::Sim3)
-    o += line("  scale         %.6f (applied to the estimate: it was %.4f times the ground truth's size)",
-              r.alignment_scale, r.alignment_scale > 0.0 ? 1.0 / r.alignment_scale : 0.0);
-  o += line("  matched       %zu of %zu ground-truth poses (coverage %.1f %%)", r.matched, r.gt_poses,
-            r.coverage * 100.0);
-  o += line("  vertical axis %c (%s)", axis_name(r.vertical_axis),
-            r.vertical_axis_auto ? "auto: the ground truth's smallest extent; override with --up" : "from --up");
+    append_format(o, "  scale         %.6f (applied to the estimate: it was %.4f times the ground truth's size)\n",
+                  r.alignment_scale, r.alignment_scale > 0.0 ? 1.0 / r.alignment_scale : 0.0);
+  append_format(o, "  matched       %zu of %zu ground-truth poses (coverage %.1f %%)\n", r.matched, r.gt_poses,
+                r.coverage * 100.0);
+  append_format(o, "  vertical axis %c (%s)\n", axis_name(r.vertical_axis),
+                r.vertical_axis_auto ? "auto: the ground truth's smallest extent; override with --up" : "from --up");
   o += "\n";
-  o += line("  %-14s %10s %10s %10s %10s %10s", "", "mean", "median", "rmse", "std", "max");
-  o += line("  %-14s %10.4f %10.4f %10.4f %10.4f %10.4f", "error [m]", r.error.mean, r.error.median, r.error.rmse,
-            r.error.std, r.error.max);
+  append_format(o, "  %-14s %10s %10s %10s %10s %10s\n", "", "mean", "median", "rmse", "std", "max");
+  append_format(o, "  %-14s %10.4f %10.4f %10.4f %10.4f %10.4f\n", "error [m]", r.error.mean, r.error.median, r.error.rmse,
+                r.error.std, r.error.max);
   o += "\n";
-  o += line("  %-14s %10s %10s", "component", "mean |e|", "rmse");
-  o += line("  %-14s %10.4f %10.4f", "longitudinal", r.longitudinal.mean_abs, r.longitudinal.rmse);
-  o += line("  %-14s %10.4f %10.4f", "lateral", r.lateral.mean_abs, r.lateral.rmse);
-  o += line("  %-14s %10.4f %10.4f", "vertical", r.vertical.mean_abs, r.vertical.rmse);
+  append_format(o, "  %-14s %10s %10s\n", "component", "mean |e|", "rmse");
+  append_format(o, "  %-14s %10.4f %10.4f\n", "longitudinal", r.longitudinal.mean_abs, r.longitudinal.rmse);
+  append_format(o, "  %-14s %10.4f %10.4f\n", "lateral", r.lateral.mean_abs, r.lateral.rmse);
+  append_format(o, "  %-14s %10.4f %10.4f\n", "vertical", r.vertical.mean_abs, r.vertical.rmse);
   return o;
 }
 
@@ -114,24 +105,24 @@ std::string kitti_text(const KittiResult& r, const std::string& est_path, const 
   o += "KITTI odometry relative errors (segments of 100..800 m from every 10th frame)\n";
   o += "  estimate      " + est_path + "\n";
   o += "  ground truth  " + gt_path + "\n";
-  o += line("  pairs         %zu poses, %.1f m of ground-truth path, %zu segments", r.pairs, r.path_length,
-            r.segments.size());
-  o += line("  speed from    %s", r.times_from_files ? "timestamps" : "frame numbers at 10 Hz");
+  append_format(o, "  pairs         %zu poses, %.1f m of ground-truth path, %zu segments\n", r.pairs, r.path_length,
+                r.segments.size());
+  append_format(o, "  speed from    %s\n", r.times_from_files ? "timestamps" : "frame numbers at 10 Hz");
   o += "\n";
-  o += line("  %-16s %9s %14s %18s", "", "segments", "translation %", "rotation deg/100m");
-  o += line("  %-16s %9zu %14.4f %18.4f", "overall", r.overall.segments, r.overall.translation_pct,
-            r.overall.rotation_deg_per_100m);
+  append_format(o, "  %-16s %9s %14s %18s\n", "", "segments", "translation %", "rotation deg/100m");
+  append_format(o, "  %-16s %9zu %14.4f %18.4f\n", "overall", r.overall.segments, r.overall.translation_pct,
+                r.overall.rotation_deg_per_100m);
   o += "\n  by length\n";
   for (const auto& g : r.by_length) {
     char label[32];
     std::snprintf(label, sizeof label, "%.0f m", g.lo);
-    o += line("  %-16s %9zu %14.4f %18.4f", label, g.segments, g.translation_pct, g.rotation_deg_per_100m);
+    append_format(o, "  %-16s %9zu %14.4f %18.4f\n", label, g.segments, g.translation_pct, g.rotation_deg_per_100m);
   }
   o += "\n  by speed\n";
   for (const auto& g : r.by_speed) {
     char label[32];
     std::snprintf(label, sizeof label, "%.0f-%.0f km/h", g.lo, g.hi);
-    o += line("  %-16s %9zu %14.4f %18.4f", label, g.segments, g.translation_pct, g.rotation_deg_per_100m);
+    append_format(o, "  %-16s %9zu %14.4f %18.4f\n", label, g.segments, g.translation_pct, g.rotation_deg_per_100m);
   }
   return o;
 }
@@ -156,8 +147,8 @@ nlohmann::ordered_json timing_json(const TimingColumn& c, const TimingStats& s, 
 std::string timing_text(const TimingColumn& c, const TimingStats& s, const Histogram& h, const std::string& path) {
   std::string o;
   o += "Per-scan time, column " + c.name + " of " + path + " (ms; percentiles interpolated between ranks)\n";
-  o += line("  %8s %10s %10s %10s %10s %10s %10s", "count", "min", "mean", "p50", "p90", "p99", "max");
-  o += line("  %8zu %10.3f %10.3f %10.3f %10.3f %10.3f %10.3f", s.count, s.min, s.mean, s.p50, s.p90, s.p99, s.max);
+  append_format(o, "  %8s %10s %10s %10s %10s %10s %10s\n", "count", "min", "mean", "p50", "p90", "p99", "max");
+  append_format(o, "  %8zu %10.3f %10.3f %10.3f %10.3f %10.3f %10.3f\n", s.count, s.min, s.mean, s.p50, s.p90, s.p99, s.max);
   o += "\n";
   const std::string hist = text_histogram(h, 40, 2);
   std::size_t start = 0;
@@ -215,32 +206,35 @@ std::string map_text(const MapAccuracy& r, const std::string& map_path, const st
   std::string o;
   o += r.surface ? "Map accuracy: distance from each map point to the reference surface (metres)\n"
                  : "Map accuracy: distance from each map point to the nearest reference point (metres)\n";
-  o += line("  map           %s (%zu points)", map_path.c_str(), r.map_points);
-  o += line("  reference     %s (%zu points, spacing %.3f m)", reference_path.c_str(), r.reference_points,
-            r.reference_spacing);
+  append_format(o, "  map           %s (%zu points)\n", map_path.c_str(), r.map_points);
+  append_format(o, "  reference     %s (%zu points, spacing %.3f m)\n", reference_path.c_str(), r.reference_points,
+                r.reference_spacing);
   if (origin)
-    o += line("  origin        lat %.9f, lon %.9f, alt %.3f m", origin->lat_deg, origin->lon_deg, origin->alt_m);
+    append_format(o, "  origin        lat %.9f, lon %.9f, alt %.3f m\n", origin->lat_deg, origin->lon_deg, origin->alt_m);
   else
     o += "  origin        not recorded (the clouds are taken to share one world frame)\n";
   o += "\n";
-  o += line("  within %.3f m  %6.2f %% of the map points", r.within, 100.0 * share_at(r, r.within));
+  append_format(o, "  within %.3f m  %6.2f %% of the map points\n", r.within, 100.0 * share_at(r, r.within));
   o += "\n";
-  o += line("  %-12s %10s %10s", "within [m]", "points", "share %");
-  for (const auto& s : r.shares) o += line("  %-12.3f %10zu %10.2f", s.distance, s.points, 100.0 * s.share);
+  append_format(o, "  %-12s %10s %10s\n", "within [m]", "points", "share %");
+  for (const auto& s : r.shares) append_format(o, "  %-12.3f %10zu %10.2f\n", s.distance, s.points, 100.0 * s.share);
   o += "\n";
-  o += line("  %-14s %9s %9s %9s %9s %9s %9s", "", "mean", "median", "p90", "p95", "p99", "max");
-  o += line("  %-14s %9.4f %9.4f %9.4f %9.4f %9.4f %9.4f", "distance [m]", r.distance.mean, r.distance.median, r.p90,
-            r.p95, r.p99, r.distance.max);
+  append_format(o, "  %-14s %9s %9s %9s %9s %9s %9s\n", "", "mean", "median", "p90", "p95", "p99", "max");
+  append_format(o, "  %-14s %9.4f %9.4f %9.4f %9.4f %9.4f %9.4f\n", "distance [m]", r.distance.mean, r.distance.median, r.p90,
+                r.p95, r.p99, r.distance.max);
   o += "\n";
-  o += line("  reference coverage  %.2f %% of the reference points have a map point within %.2f m", 100.0 * r.reference_coverage,
-            r.coverage_radius);
+  append_format(o, "  reference coverage  %.2f %% of the reference points have a map point within %.2f m\n",
+                100.0 * r.reference_coverage, r.coverage_radius);
   if (r.surface)
-    o += line("  metric              %zu of the map points (%.1f %%) measured to a plane fitted to the reference, the rest "
-              "to the nearest reference point", r.surface_points, 100.0 * static_cast<double>(r.surface_points) / r.map_points);
+    append_format(o,
+                  "  metric              %zu of the map points (%.1f %%) measured to a plane fitted to the reference, the rest "
+                  "to the nearest reference point\n",
+                  r.surface_points, 100.0 * static_cast<double>(r.surface_points) / r.map_points);
   if (!r.surface && 0.5 * std::sqrt(2.0) * r.reference_spacing > r.within)
-    o += line("  note: the reference's points are %.3f m apart, so even a perfect map point can be up to about "
-              "%.3f m from the nearest one; a denser reference (pl-sim --map-spacing) resolves --within %.3f m",
-              r.reference_spacing, 0.5 * r.reference_spacing * std::sqrt(2.0), r.within);
+    append_format(o,
+                  "  note: the reference's points are %.3f m apart, so even a perfect map point can be up to about "
+                  "%.3f m from the nearest one; a denser reference (pl-sim --map-spacing) resolves --within %.3f m\n",
+                  r.reference_spacing, 0.5 * r.reference_spacing * std::sqrt(2.0), r.within);
   return o;
 }
 

@@ -26,7 +26,6 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <openssl/ssl.h>
 #include <optional>
 #include <thread>
 #include <utility>
@@ -37,6 +36,7 @@
 #include "pl/client/vehicle_localizer.hpp"
 #include "pl/common/error.hpp"
 #include "pl/schema/api_rules.hpp"
+#include "pl/schema/detail/tls_client.hpp"
 #include "pl/schema/http_client.hpp"
 #include "pl/schema/signed_manifest.hpp"
 #include "report.hpp"
@@ -208,17 +208,8 @@ FleetReport run_fleet(const FleetOptions& options, const FleetObserver& observer
     sh->endpoints = resolver.resolve(u.host, u.port);
     sh->host_header = u.host + ":" + u.port;
     sh->host = u.host;
-    if (u.scheme == "https") {  // as the tile client's HttpClient: TLS 1.2 at least, the chain and the name checked
-      sh->tls.emplace(net::ssl::context::tls_client);
-      SSL_CTX_set_min_proto_version(sh->tls->native_handle(), TLS1_2_VERSION);
-      beast::error_code ec;
-      if (o.ca_file.empty())
-        sh->tls->set_default_verify_paths(ec);
-      else
-        sh->tls->load_verify_file(o.ca_file, ec);
-      if (ec) throw Error("--ca-file " + o.ca_file + ": cannot be loaded (" + ec.message() + "): give a readable PEM file of CA certificates");
-      sh->tls->set_verify_mode(net::ssl::verify_peer);
-    }
+    // As the tile client's HttpClient: TLS 1.2 at least, the chain checked here and the name per connection.
+    if (u.scheme == "https") sh->tls.emplace(detail::tls_client_context(o.ca_file));
   }
   std::vector<std::shared_ptr<Vehicle>> fleet;
   fleet.reserve(static_cast<std::size_t>(o.vehicles));

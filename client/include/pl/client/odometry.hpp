@@ -9,7 +9,7 @@
 #include <optional>
 #include <vector>
 
-#include "pl/common/dataset.hpp"
+#include "pl/recordings/dataset.hpp"
 
 namespace pl::client {
 

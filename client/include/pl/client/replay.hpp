@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "pl/client/vehicle_localizer.hpp"
-#include "pl/common/dataset.hpp"
 #include "pl/common/pose.hpp"
+#include "pl/recordings/dataset.hpp"
 
 namespace pl::client {
 

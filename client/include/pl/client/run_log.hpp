@@ -41,9 +41,9 @@
 
 #include "pl/client/localizer.hpp"
 #include "pl/client/map_tile.hpp"
-#include "pl/common/dataset.hpp"
-#include "pl/common/mcap_writer.hpp"
 #include "pl/common/scan.hpp"
+#include "pl/recordings/dataset.hpp"
+#include "pl/recordings/mcap_writer.hpp"
 
 namespace pl::client {
 

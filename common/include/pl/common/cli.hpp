@@ -18,8 +18,6 @@
 
 namespace pl {
 
-struct DatasetOptions;
-
 // "a,b,c" as exactly n numbers; throws pl::Error naming the flag otherwise.
 std::vector<double> parse_number_list(const std::string& text, std::size_t n, const std::string& flag);
 
@@ -88,6 +86,12 @@ CLI::Option* number(CLI::App& app, const std::string& flag, T& value, const std:
 // A word out of `choices` ("--poses takes gt or lidar, got \"odometry\""); --help shows them.
 CLI::Option* choice(CLI::App& app, const std::string& flag, std::string& value, const std::string& help,
                     const std::vector<std::string>& choices);
+// The same for a word that names an enum value, mapped while parsing.
+template <typename E>
+CLI::Option* choice(CLI::App& app, const std::string& flag, E& value, const std::string& help,
+                    const std::vector<std::pair<std::string, E>>& words);
+// The check of both: `text` is one of `words`, or the error names them.
+CLI::Validator one_of(const std::string& flag, const std::vector<std::string>& words);
 
 // LAT,LON,ALT (degrees, degrees, metres) into `text`; parse it with geo_point() after parsing.
 CLI::Option* geo_option(CLI::App& app, const std::string& flag, std::string& text, const std::string& help);
@@ -98,12 +102,24 @@ GeoPoint geo_point(const std::string& text, const std::string& flag);
 CLI::Option* output_file(CLI::App& app, const std::string& flag, std::string& path, const std::string& help);
 CLI::Option* output_folder(CLI::App& app, const std::string& flag, std::string& path, const std::string& help);
 
-// --dataset PATH (a KITTI folder, a ROS 1 bag, a ROS 2 bag folder or .db3 file, or an MCAP file), and
-// the flags that choose a recording's topics where it has several of a kind: --points-topic,
-// --odom-topic, --gps-topic, --truth-topic.
-CLI::Option* dataset_option(CLI::App& app, std::string& path, DatasetOptions& topics, const std::string& help);
-// The topic flags alone (for a program whose dataset is a positional argument).
-void topic_options(CLI::App& app, DatasetOptions& topics);
+template <typename E>
+CLI::Option* choice(CLI::App& app, const std::string& flag, E& value, const std::string& help,
+                    const std::vector<std::pair<std::string, E>>& words) {
+  std::vector<std::string> names;
+  std::string type, shown;
+  for (const auto& [name, e] : words) {
+    names.push_back(name);
+    type += (type.empty() ? "" : "|") + name;
+    if (e == value) shown = name;
+  }
+  // transform() puts each validator first: the word is checked, then mapped (CLI11 alone would also
+  // take the enum's number).
+  return app.add_option(flag, value, help)
+      ->transform(CLI::CheckedTransformer(words).description(""))
+      ->transform(one_of(flag, names))
+      ->type_name(type)
+      ->default_str(shown);
+}
 
 }  // namespace cli
 }  // namespace pl

@@ -42,7 +42,8 @@ std::string valid_utf8(std::string_view text);
 // line of plain ASCII for a log, whatever a client sent.
 std::string printable(std::string_view text, std::size_t max_length = 512);
 
-// printf-style text appended to `out` (reports built line by line); a line longer than 1 KiB is cut.
+// printf-style text, returned or appended to `out` (reports built line by line).
+std::string format_text(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
 void append_format(std::string& out, const char* fmt, ...) __attribute__((format(printf, 2, 3)));
 
 bool file_exists(const std::string& path);

@@ -8,13 +8,13 @@
 #include <optional>
 #include <string>
 
-#include "pl/common/dataset.hpp"
 #include "pl/common/geo.hpp"
 #include "pl/common/pose.hpp"
 #include "pl/maps/loam.hpp"
 #include "pl/maps/loop_closure.hpp"
 #include "pl/maps/map_builder.hpp"
 #include "pl/maps/pose_graph.hpp"
+#include "pl/recordings/dataset.hpp"
 
 namespace pl::maps {
 

@@ -7,10 +7,10 @@
 #include <unordered_map>
 #include <vector>
 
-#include "pl/common/dataset.hpp"
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
 #include "pl/common/voxel.hpp"
+#include "pl/recordings/dataset.hpp"
 #include "pl/registration/place_index.hpp"
 
 namespace pl::maps {

@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "pl/common/dataset.hpp"
 #include "pl/common/pose.hpp"
+#include "pl/recordings/dataset.hpp"
 
 namespace pl::maps {
 

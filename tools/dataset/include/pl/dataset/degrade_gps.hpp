@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <string>
 
-#include "pl/common/dataset.hpp"
+#include "pl/recordings/dataset.hpp"
 
 namespace pl::dataset {
 

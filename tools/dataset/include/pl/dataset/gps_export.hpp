@@ -5,8 +5,8 @@
 #include <cstddef>
 #include <optional>
 
-#include "pl/common/dataset.hpp"
 #include "pl/common/pose.hpp"
+#include "pl/recordings/dataset.hpp"
 
 namespace pl::dataset {
 

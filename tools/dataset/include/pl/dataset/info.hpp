@@ -8,7 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "pl/common/dataset.hpp"
+#include "pl/recordings/dataset.hpp"
 
 namespace pl::dataset {
 

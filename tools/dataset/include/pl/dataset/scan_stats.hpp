@@ -6,8 +6,8 @@
 #include <functional>
 #include <string>
 
-#include "pl/common/dataset.hpp"
 #include "pl/common/scan.hpp"
+#include "pl/recordings/dataset.hpp"
 
 namespace pl::dataset {
 

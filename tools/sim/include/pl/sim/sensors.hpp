@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "pl/common/dataset.hpp"
 #include "pl/common/geo.hpp"
+#include "pl/recordings/dataset.hpp"
 #include "pl/sim/trajectory.hpp"
 #include "pl/sim/world.hpp"
 

@@ -1,4 +1,4 @@
-#include "pl/common/bag.hpp"
+#include "pl/recordings/bag.hpp"
 
 #include <fcntl.h>
 #include <sys/mman.h>

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "pl/common/cloud_io.hpp"
-#include "pl/common/dataset.hpp"
 #include "pl/common/error.hpp"
+#include "pl/recordings/dataset.hpp"
 #include "error_of.hpp"
 #include "test_util.hpp"
 

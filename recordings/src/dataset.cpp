@@ -1,4 +1,4 @@
-#include "pl/common/dataset.hpp"
+#include "pl/recordings/dataset.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -9,10 +9,10 @@
 #include <map>
 
 #include "dataset_recording.hpp"
-#include "pl/common/bag.hpp"
 #include "pl/common/cloud_io.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/text.hpp"
+#include "pl/recordings/bag.hpp"
 
 namespace fs = std::filesystem;
 

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 # Writes ROS 1 messages serialized by ROS's own Python message classes (Debian's python3-sensor-msgs,
 # python3-nav-msgs, python3-tf2-msgs, python3-geometry-msgs): an independent serializer for the
-# decoders of common/src/ros_msgs.cpp. One line per message: NAME HEX.
+# decoders of recordings/src/ros_msgs.cpp. One line per message: NAME HEX.
 import io
 import math
 import struct

@@ -10,11 +10,11 @@
 
 #include "error_of.hpp"
 #include "pl/common/error.hpp"
-#include "pl/common/ros_msgs.hpp"
+#include "pl/recordings/ros_msgs.hpp"
 #include "test_util.hpp"
 
 #ifndef PL_TEST_SCRIPTS_DIR
-#define PL_TEST_SCRIPTS_DIR "tests/common"
+#define PL_TEST_SCRIPTS_DIR "tests/recordings"
 #endif
 
 namespace ros = pl::ros;

@@ -1,4 +1,4 @@
-#include "pl/common/mcap_writer.hpp"
+#include "pl/recordings/mcap_writer.hpp"
 
 #include <zlib.h>
 #include <zstd.h>

@@ -16,9 +16,9 @@
 #include <vector>
 
 #include "byte_reader.hpp"
-#include "pl/common/bag.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/text.hpp"
+#include "pl/recordings/bag.hpp"
 
 namespace pl::bag {
 namespace {

@@ -1,4 +1,4 @@
-// Tests of the ROS 2 bag reader (common/src/bag_ros2.cpp) on bags written here with SQLite itself,
+// Tests of the ROS 2 bag reader (recordings/src/bag_ros2.cpp) on bags written here with SQLite itself,
 // in the tables rosbag2 writes (Humble's, and Iron's and later ones with message definitions): a
 // .db3 file alone, folders of several files, zstd compression of each message or of whole files,
 // and damaged or foreign files. One bag is written by Debian's Python (its sqlite3 module) instead,
@@ -14,8 +14,8 @@
 #include <vector>
 
 #include "error_of.hpp"
-#include "pl/common/bag.hpp"
 #include "pl/common/error.hpp"
+#include "pl/recordings/bag.hpp"
 #include "test_util.hpp"
 
 using pl::test::error_of;

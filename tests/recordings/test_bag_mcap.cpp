@@ -1,4 +1,4 @@
-// The MCAP reader (common/src/bag_mcap.cpp) on files written by a small MCAP writer of this test's own
+// The MCAP reader (recordings/src/bag_mcap.cpp) on files written by a small MCAP writer of this test's own
 // (chunks uncompressed, zstd or lz4, with CRCs, message indexes and a summary section, or messages
 // straight in the data section), and on those files damaged: cut short, bad CRCs, bad lengths.
 #include <gtest/gtest.h>
@@ -18,8 +18,8 @@
 #include <vector>
 
 #include "error_of.hpp"
-#include "pl/common/bag.hpp"
 #include "pl/common/error.hpp"
+#include "pl/recordings/bag.hpp"
 #include "test_util.hpp"
 
 namespace {

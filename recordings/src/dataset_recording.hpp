@@ -3,7 +3,7 @@
 
 #include <cstddef>
 
-#include "pl/common/dataset.hpp"
+#include "pl/recordings/dataset.hpp"
 
 namespace pl {
 

@@ -51,8 +51,8 @@
 
 #include "byte_reader.hpp"
 #include "mcap_format.hpp"
-#include "pl/common/bag.hpp"
 #include "pl/common/error.hpp"
+#include "pl/recordings/bag.hpp"
 
 namespace pl::bag {
 namespace {

@@ -7,13 +7,13 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "pl/common/dataset.hpp"
+#include "pl/recordings/dataset.hpp"
 #include "error_of.hpp"
 #include "pl/common/error.hpp"
 #include "test_util.hpp"
 
 #ifndef PL_TEST_SCRIPTS_DIR
-#define PL_TEST_SCRIPTS_DIR "tests/common"
+#define PL_TEST_SCRIPTS_DIR "tests/recordings"
 #endif
 
 namespace {

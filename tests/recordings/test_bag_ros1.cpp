@@ -1,5 +1,5 @@
-// Tests of the ROS 1 bag reader (common/src/bag_ros1.cpp): bags written by Debian's python3-rosbag
-// (tests/common/make_ros1_bag.py, uncompressed, bz2 and lz4, many small chunks) must come back
+// Tests of the ROS 1 bag reader (recordings/src/bag_ros1.cpp): bags written by Debian's python3-rosbag
+// (tests/recordings/make_ros1_bag.py, uncompressed, bz2 and lz4, many small chunks) must come back
 // topic for topic and byte for byte; a recording cut before its index still reads; damaged and
 // truncated bags are refused with a pl::Error naming the file, the offset and the problem.
 #include <gtest/gtest.h>
@@ -16,12 +16,12 @@
 #include <vector>
 
 #include "error_of.hpp"
-#include "pl/common/bag.hpp"
 #include "pl/common/error.hpp"
+#include "pl/recordings/bag.hpp"
 #include "test_util.hpp"
 
 #ifndef PL_TEST_SCRIPTS_DIR
-#define PL_TEST_SCRIPTS_DIR "tests/common"
+#define PL_TEST_SCRIPTS_DIR "tests/recordings"
 #endif
 
 using pl::test::error_of;

@@ -1,6 +1,6 @@
 // One reader for real and simulated drives: KITTI odometry and KITTI raw layouts, plus this
 // project's sidecar files (encoder.csv, gps.csv, odometry.csv, meta.json), and recordings (ROS 1 and
-// ROS 2 bags, MCAP files: pl/common/bag.hpp). docs/dataset-layout.md describes every file.
+// ROS 2 bags, MCAP files: pl/recordings/bag.hpp). docs/dataset-layout.md describes every file.
 #pragma once
 
 #include <cstdint>
@@ -67,7 +67,7 @@ struct DatasetOptions {
   std::string truth_topic;
 };
 
-class RecordingScans;  // a recording's scans, read on demand (common/src/dataset_recording.cpp)
+class RecordingScans;  // a recording's scans, read on demand (recordings/src/dataset_recording.cpp)
 
 // What a recording held and what was taken from it (pl-dataset info prints it).
 struct RecordingInfo {

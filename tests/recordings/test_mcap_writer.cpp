@@ -1,4 +1,4 @@
-// The MCAP writer (pl/common/mcap_writer.hpp): what it writes, read back by this project's MCAP reader
+// The MCAP writer (pl/recordings/mcap_writer.hpp): what it writes, read back by this project's MCAP reader
 // (pl::bag::open_mcap), and its summary, indexes and CRCs walked here by hand from the spec's record
 // layouts. tests/client/run_log/check_run_log.mjs reads its files with an independent reader
 // (@mcap/core).
@@ -13,9 +13,9 @@
 #include <vector>
 
 #include "error_of.hpp"
-#include "pl/common/bag.hpp"
 #include "pl/common/error.hpp"
-#include "pl/common/mcap_writer.hpp"
+#include "pl/recordings/bag.hpp"
+#include "pl/recordings/mcap_writer.hpp"
 #include "test_util.hpp"
 
 namespace {

@@ -2,7 +2,7 @@
 // prefixes strings and sequences with a u32 length. CDR (ROS 2) starts with a 4-byte encapsulation
 // header, aligns each primitive to its own size counted from the end of that header, and counts a
 // string's terminating NUL in its length. ROS 1's std_msgs/Header has a u32 seq that ROS 2 dropped.
-#include "pl/common/ros_msgs.hpp"
+#include "pl/recordings/ros_msgs.hpp"
 
 #include <Eigen/Geometry>
 

@@ -6,7 +6,7 @@
 // bag compresses each message with zstd (compression_mode MESSAGE). The files are opened read-only and treated as hostile: SQLite
 // reports the damage it meets, and the tables read must be plain tables whose columns hold stored values, since a view, a virtual
 // table, a generated column or a computed default would run SQL of the file's choosing on every read.
-#include "pl/common/bag.hpp"
+#include "pl/recordings/bag.hpp"
 
 #include <sqlite3.h>
 #include <zstd.h>

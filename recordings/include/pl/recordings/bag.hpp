@@ -1,7 +1,7 @@
 // Recordings robots make, read without ROS: ROS 1 bags (.bag, chunks plain, bz2 or lz4), ROS 2 bags
 // (a folder with metadata.yaml and .db3 SQLite files, or one .db3) and MCAP files (ROS 1 or CDR
 // messages, chunks plain, zstd or lz4). A reader lists the topics and every message in time order
-// and hands out a message's serialized bytes on demand; pl/common/ros_msgs.hpp decodes them.
+// and hands out a message's serialized bytes on demand; pl/recordings/ros_msgs.hpp decodes them.
 #pragma once
 
 #include <cstdint>

@@ -13,9 +13,9 @@
 #include <string_view>
 #include <vector>
 
-#include "pl/common/bag.hpp"
 #include "pl/common/pose.hpp"
 #include "pl/common/scan.hpp"
+#include "pl/recordings/bag.hpp"
 
 namespace pl::ros {
 

@@ -12,9 +12,9 @@
 #include <mutex>
 #include <optional>
 
-#include "pl/common/bag.hpp"
 #include "pl/common/error.hpp"
-#include "pl/common/ros_msgs.hpp"
+#include "pl/recordings/bag.hpp"
+#include "pl/recordings/ros_msgs.hpp"
 
 namespace pl {
 

@@ -1,0 +1,19 @@
+#include "pl/recordings/dataset_cli.hpp"
+
+namespace pl::cli {
+
+void topic_options(CLI::App& app, DatasetOptions& topics) {
+  app.add_option("--points-topic", topics.points_topic, "a recording's sensor_msgs/PointCloud2 topic (when it has several)")->type_name("TOPIC");
+  app.add_option("--odom-topic", topics.odom_topic, "a recording's nav_msgs/Odometry topic (when it has several)")->type_name("TOPIC");
+  app.add_option("--gps-topic", topics.gps_topic, "a recording's sensor_msgs/NavSatFix topic (when it has several)")->type_name("TOPIC");
+  app.add_option("--truth-topic", topics.truth_topic, "a recording's nav_msgs/Odometry topic holding the ground truth")->type_name("TOPIC");
+}
+
+CLI::Option* dataset_option(CLI::App& app, std::string& path, DatasetOptions& topics, const std::string& help) {
+  topic_options(app, topics);
+  return app.add_option("--dataset", path, help + ": a KITTI folder, a ROS 1 bag, a ROS 2 bag (folder or .db3) or an MCAP file")
+      ->required()
+      ->type_name("PATH");
+}
+
+}  // namespace pl::cli
