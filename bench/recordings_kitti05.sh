@@ -21,12 +21,15 @@ fi
 export PL_NO_PROGRESS=1 OMP_NUM_THREADS=1
 rec="$work/recordings"
 mkdir -p "$rec"
-if [[ ! -f "$rec/done" ]]; then
+if [[ ! -f "$rec/done" || ! -f "$rec/k05_pcl_xyzi.bag" ]]; then
   echo "converting drive 0005 to a ROS 1 bag, a ROS 2 bag and an MCAP file in $rec (once)"
   "$bin/pl-dataset" poses "$drive" --format tum --out "$rec/gt.tum" >/dev/null
   start=$(date +%s)
   /usr/bin/python3 "$root/tools/recordings/kitti_to_recordings.py" "$drive" "$rec/gt.tum" "$rec/k05"
   /usr/bin/python3 "$root/tools/recordings/kitti_to_recordings.py" "$drive" "$rec/gt.tum" "$rec/k05_plain" --formats bag --bag-compression none
+  # As other tools lay the clouds out: the Velodyne driver's fields with every time 0, and PCL's PointXYZI.
+  /usr/bin/python3 "$root/tools/recordings/kitti_to_recordings.py" "$drive" "$rec/gt.tum" "$rec/k05_zero_time" --formats bag --layout velodyne-zero-time
+  /usr/bin/python3 "$root/tools/recordings/kitti_to_recordings.py" "$drive" "$rec/gt.tum" "$rec/k05_pcl_xyzi" --formats bag --layout pcl-xyzi
   echo "converted in $(($(date +%s) - start)) s" >"$rec/done"
 fi
 cat "$rec/done"
@@ -71,6 +74,8 @@ protocol folder "$drive"
 protocol "ROS 1 bag (rosbag, lz4 chunks)" "$rec/k05.bag" --truth-topic /ground_truth
 protocol "ROS 2 bag (.db3, CDR)" "$rec/k05_ros2" --truth-topic /ground_truth
 protocol "MCAP (CDR)" "$rec/k05.mcap" --truth-topic /ground_truth
+protocol "ROS 1 bag, Velodyne layout, time all 0" "$rec/k05_zero_time.bag" --truth-topic /ground_truth
+protocol "ROS 1 bag, PCL PointXYZI (no ring)" "$rec/k05_pcl_xyzi.bag" --truth-topic /ground_truth
 
 # The localizer alone: each recording on the folder's map, started from the same pose given as
 # numbers (--init X,Y,Z,YAW), so that nothing but the reading differs.
@@ -84,7 +89,7 @@ alone() {
     --init "$start" --out "$rec/alone.tum" --kitti-out "$rec/alone_$name.txt" "$@" >/dev/null
 }
 alone folder "$drive"
-for f in k05.bag k05_ros2 k05.mcap; do
+for f in k05.bag k05_ros2 k05.mcap k05_zero_time.bag k05_pcl_xyzi.bag; do
   alone "$f" "$rec/$f" --truth-topic /ground_truth
   paste -d' ' <(grep -v '^#' "$rec/alone_$f.txt") <(grep -v '^#' "$rec/alone_folder.txt") |
     awk -v f="$f" '{ d = sqrt(($4 - $16) ^ 2 + ($8 - $20) ^ 2 + ($12 - $24) ^ 2); if (d > m) m = d } END { printf "  %s: %.6f mm over %d scans\n", f, 1000 * m, NR }'

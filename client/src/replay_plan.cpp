@@ -68,6 +68,10 @@ ReplayOptions plan_replay(const Dataset& ds, ReplayPlan& plan, VehicleLocalizerC
   LocalizerConfig& lc = cfg.localizer;
   const int sensor = ds.meta.sensor.beams;
   if (plan.beams == 0) plan.beams = sensor;
+  if (sensor == 1 && plan.beams > 1 && ds.recording)
+    throw Error("--beams " + std::to_string(plan.beams) + ": the recording's clouds have no ring field and their points do not come " +
+                "laser by laser, so no beams can be told apart: record the driver's ring field (ring, line or channel), or " +
+                "leave out --beams to use every point");
   if (plan.beams > sensor || sensor % plan.beams != 0)
     throw Error("--beams must divide the sensor's " + std::to_string(sensor) + " beams, got " + std::to_string(plan.beams));
   lc.scan.beams = plan.beams;

@@ -8,11 +8,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <mutex>
 #include <optional>
 
 #include "pl/common/error.hpp"
+#include "pl/common/scan.hpp"
 #include "pl/recordings/bag.hpp"
 #include "pl/recordings/ros_msgs.hpp"
 
@@ -24,18 +26,28 @@ class RecordingScans {
   std::vector<bag::MessageRef> scans;  // in stamp order
   bag::Encoding encoding = bag::Encoding::Ros1;
   std::string path, topic;
+  ros::SweepBounds sweep;       // from the scans' rate
+  bool rings_from_order = false;  // no ring field, but the points come laser by laser
   std::mutex mutex;
 };
 
-Frame recording_frame(RecordingScans& rec, std::size_t i, bool with_rings) {
+namespace {
+
+ros::PointCloud recording_cloud(RecordingScans& rec, std::size_t i) {
   if (i >= rec.scans.size())
     throw Error("scan index " + std::to_string(i) + " out of range (" + rec.path + " has " + std::to_string(rec.scans.size()) + " scans)");
   std::lock_guard<std::mutex> lock(rec.mutex);
   const std::string name = rec.path + ": " + rec.topic + " message " + std::to_string(i);
-  ros::PointCloud cloud = ros::decode_point_cloud2(rec.reader->read(rec.scans[i]), rec.encoding, name);
+  return ros::decode_point_cloud2(rec.reader->read(rec.scans[i]), rec.encoding, name, rec.sweep);
+}
+
+}  // namespace
+
+Frame recording_frame(RecordingScans& rec, std::size_t i, bool with_rings) {
+  ros::PointCloud cloud = recording_cloud(rec, i);
   Frame f;
   f.scan = std::move(cloud.points);
-  if (with_rings) f.rings = std::move(cloud.rings);
+  if (with_rings) f.rings = cloud.rings.empty() && rec.rings_from_order ? rings_from_azimuth(f.scan) : std::move(cloud.rings);
   f.times = std::move(cloud.times);
   return f;
 }
@@ -184,20 +196,46 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
     ds.frame_ids.push_back(static_cast<long>(i));
   }
 
+  // The scans' rate bounds the spread their per-point times may have.
+  if (ds.times.size() > 1) ds.meta.sensor.rate_hz = (ds.times.size() - 1) / std::max(1e-9, ds.times.back() - ds.times.front());
+  if (ds.meta.sensor.rate_hz > 0) rec->sweep = ros::SweepBounds::around(1.0 / ds.meta.sensor.rate_hz);
+
   // The first scan tells the sensor: its rings and whether its points carry times.
-  const Frame first = recording_frame(*rec, 0, true);
+  const ros::PointCloud first = recording_cloud(*rec, 0);
   info.lidar_frame = ros::frame_name(topic_frames[pi]);
   int beams = 0;
   for (std::uint16_t ring : first.rings) beams = std::max(beams, ring + 1);
   ds.meta.sensor.model = "from " + points->name;
-  ds.meta.sensor.beams = beams > 0 ? beams : 1;
   ds.meta.sensor.point_order = "any";
   ds.meta.sensor.vertical_angles_deg.clear();
-  if (ds.times.size() > 1) ds.meta.sensor.rate_hz = (ds.times.size() - 1) / std::max(1e-9, ds.times.back() - ds.times.front());
-  if (beams == 0) info.notes.push_back("the clouds have no ring field: no beams can be chosen (--beams needs one)");
+  if (first.rings.empty() && !first.points.empty()) {
+    // No ring field: where the points come laser by laser (each ring one turn of azimuth, as a KITTI
+    // folder's), the turns are the rings; trusted only when they count a sensor's beams.
+    const std::vector<std::uint16_t> turns = rings_from_azimuth(first.points);
+    const int n = turns.back() + 1;
+    if (n == 16 || n == 32 || n == 40 || n == 64 || n == 128) {
+      rec->rings_from_order = true;
+      beams = n;
+      ds.meta.sensor.point_order = "laser-by-laser";
+      info.notes.push_back("the clouds have no ring field: rings from the points' order, laser by laser (" + std::to_string(n) +
+                           " turns of azimuth in the first scan)");
+    } else {
+      info.notes.push_back("the clouds have no ring field, and their points do not come laser by laser (" + std::to_string(n) +
+                           " turns of azimuth in the first scan, not 16, 32, 40, 64 or 128): no beams can be chosen");
+    }
+  }
+  ds.meta.sensor.beams = beams > 0 ? beams : 1;
   ds.point_times_in_clouds = !first.times.empty();
-  if (!ds.point_times_in_clouds)
+  if (ds.point_times_in_clouds) {
+    char span[32];
+    std::snprintf(span, sizeof span, "%.3f", first.time_span_s);
+    info.point_times = "field " + first.time_field + ", " + first.time_unit + ", spanning " + span + " s of the first scan";
+  } else if (!first.time_set_aside.empty()) {
+    info.point_times = first.time_set_aside;
+    info.notes.push_back("no per-point times: a sweep is timed by its points' azimuths");
+  } else {
     info.notes.push_back("the clouds have no per-point time field: a sweep is timed by its points' azimuths");
+  }
 
   // Odometry: the LiDAR's poses in the odometry frame, through the base frame's extrinsics.
   if (!odo.empty()) {

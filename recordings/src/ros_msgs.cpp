@@ -6,7 +6,9 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 
@@ -147,8 +149,59 @@ const Field* find_field(const std::vector<Field>& fields, std::initializer_list<
   return nullptr;
 }
 
-// How a time field's values become seconds from the header's stamp.
-enum class TimeKind { None, RelativeNs, RelativeS, Absolute };
+const char* type_name(std::uint8_t t) {
+  static const char* const names[] = {"?", "int8", "uint8", "int16", "uint16", "int32", "uint32", "float32", "float64"};
+  return t <= kFloat64 ? names[t] : "?";
+}
+
+std::string seconds_text(double s) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g s", s);
+  return buf;
+}
+
+// The field's raw values as seconds from the header's stamp: the unit from the field's type and from
+// the spread the values must have over a sweep, absolute times (near the stamp) made relative. Fills
+// the cloud's time_* members; leaves `times` empty, with the reason, when no unit makes the values a
+// sweep's times (a constant field, all zeros, or a spread far from one rotation).
+void decide_times(PointCloud& out, const Field& f, const std::vector<double>& raw, double stamp_s, const SweepBounds& sweep) {
+  out.time_field = f.name + " (" + type_name(f.type) + ")";
+  auto set_aside = [&](const std::string& why) { out.time_set_aside = "field " + out.time_field + " set aside: " + why; };
+  if (raw.empty()) return;
+  double lo = raw.front(), hi = raw.front();
+  for (double v : raw) {
+    if (!std::isfinite(v)) return set_aside("a value is not finite");
+    lo = std::min(lo, v), hi = std::max(hi, v);
+  }
+  if (hi == lo)
+    return set_aside(std::string("all its values are ") + (lo == 0 ? "0" : std::to_string(lo)) + ": it carries no time");
+  struct Unit {
+    const char* name;
+    double scale;
+  };
+  static const Unit kFloatUnits[] = {{"s", 1.0}, {"ms", 1e-3}, {"us", 1e-6}, {"ns", 1e-9}};
+  static const Unit kIntUnits[] = {{"ns", 1e-9}, {"us", 1e-6}, {"ms", 1e-3}};
+  const bool floating = f.type == kFloat32 || f.type == kFloat64;
+  const Unit* units = floating ? kFloatUnits : kIntUnits;
+  const std::size_t n_units = floating ? 4 : 3;
+  for (std::size_t u = 0; u < n_units; ++u) {
+    const double k = units[u].scale;
+    const double span = (hi - lo) * k;
+    const bool absolute = std::abs(lo * k - stamp_s) < 10.0;  // seconds since 1970, near the stamp
+    const double offset = absolute ? stamp_s : 0.0;
+    // Checked as kept, in float32 (0.99999999 s rounds to 1 s there); between lo and hi all are within.
+    const float first = static_cast<float>(lo * k - offset), last = static_cast<float>(hi * k - offset);
+    if (!(std::abs(first) < 1.0f && std::abs(last) < 1.0f)) continue;
+    if (span < sweep.min_s || span > sweep.max_s) continue;
+    out.time_unit = std::string(units[u].name) + (absolute ? ", absolute" : ", from the stamp");
+    out.time_span_s = span;
+    out.times.reserve(raw.size());
+    for (double v : raw) out.times.push_back(static_cast<float>(v * k - offset));
+    return;
+  }
+  set_aside("in no unit do its values (" + std::to_string(lo) + " to " + std::to_string(hi) + ") span a sweep (" +
+            seconds_text(sweep.min_s) + " to " + seconds_text(sweep.max_s) + ") near the header's stamp");
+}
 
 }  // namespace
 
@@ -157,7 +210,7 @@ Header decode_header(std::string_view bytes, Encoding encoding, const std::strin
   return c.header();
 }
 
-PointCloud decode_point_cloud2(std::string_view bytes, Encoding encoding, const std::string& name) {
+PointCloud decode_point_cloud2(std::string_view bytes, Encoding encoding, const std::string& name, const SweepBounds& sweep) {
   Cursor c(bytes, encoding, name);
   PointCloud out;
   out.header = c.header();
@@ -206,24 +259,12 @@ PointCloud decode_point_cloud2(std::string_view bytes, Encoding encoding, const 
   }
   const Field* fi = find_field(fields, {"intensity", "reflectivity", "i"});
   const Field* fr = find_field(fields, {"ring", "line", "channel"});
-  const Field* ft = find_field(fields, {"t", "time", "timestamp", "time_offset"});
-  TimeKind kind = TimeKind::None;
-  if (ft) {
-    if (ft->type == kFloat32 || ft->type == kFloat64)
-      kind = ft->name == "timestamp" ? TimeKind::Absolute : TimeKind::RelativeS;
-    else if (ft->type == kUint32 || ft->type == kInt32)
-      kind = TimeKind::RelativeNs;
-  }
+  const Field* ft = find_field(fields, {"t", "time", "timestamp", "time_stamp", "time_offset", "offset_time"});
   const double stamp_s = static_cast<double>(out.header.stamp_ns) * 1e-9;
-
+  std::vector<double> raw_times;
   out.points.reserve(points);
   if (fr) out.rings.reserve(points);
-  if (kind != TimeKind::None) out.times.reserve(points);
-  // An absolute timestamp field: seconds or nanoseconds since 1970 by its magnitude; a small value is
-  // already relative (some drivers write the offset under this name).
-  double abs_scale = 1.0;
-  bool abs_relative = false;
-  bool abs_decided = false;
+  if (ft) raw_times.reserve(points);
   for (std::uint32_t row = 0; row < height; ++row) {
     const char* line = data.data() + static_cast<std::size_t>(row) * row_step;
     for (std::uint32_t col = 0; col < width; ++col) {
@@ -243,27 +284,10 @@ PointCloud decode_point_cloud2(std::string_view bytes, Encoding encoding, const 
         if (!(r >= 0 && r < 65536)) refuse("point has ring " + std::to_string(r) + " (expected 0-65535)");
         out.rings.push_back(static_cast<std::uint16_t>(r));
       }
-      if (kind == TimeKind::None) continue;
-      const double v = value_at(p + ft->offset, ft->type);
-      double t = 0;
-      switch (kind) {
-        case TimeKind::RelativeNs: t = v * 1e-9; break;
-        case TimeKind::RelativeS: t = v; break;
-        default:
-          if (!abs_decided) {
-            abs_decided = true;
-            abs_relative = std::abs(v) < 1e6;
-            abs_scale = std::abs(v) > 1e15 ? 1e-9 : 1.0;
-          }
-          t = abs_relative ? v : v * abs_scale - stamp_s;
-          break;
-      }
-      const float tf = static_cast<float>(t);  // checked as kept: 0.99999999 s rounds to 1 s in float32
-      if (!(std::abs(tf) < 1.0f))
-        refuse("point's time field \"" + ft->name + "\" gives " + std::to_string(t) + " s from the header's stamp (expected within a second: a sweep)");
-      out.times.push_back(tf);
+      if (ft) raw_times.push_back(value_at(p + ft->offset, ft->type));
     }
   }
+  if (ft) decide_times(out, *ft, raw_times, stamp_s, sweep);
   return out;
 }
 

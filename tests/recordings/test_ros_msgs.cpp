@@ -5,9 +5,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <map>
 #include <string>
 
+#include "cdr_writer.hpp"
 #include "error_of.hpp"
 #include "pl/common/error.hpp"
 #include "pl/recordings/ros_msgs.hpp"
@@ -22,6 +24,7 @@ using pl::bag::Encoding;
 
 namespace {
 
+using pl::test::CdrWriter;
 using pl::test::from_hex;
 
 // NAME -> serialized bytes, from make_ros1_msgs.py run by Debian's Python with the ROS message packages.
@@ -50,34 +53,6 @@ const std::string& ros1(const std::string& name) {
   if (it == m.end()) throw std::runtime_error("make_ros1_msgs.py gave no message " + name + " (python3-sensor-msgs installed?)");
   return it->second;
 }
-
-// CDR as ROS 2 writes it: the little-endian encapsulation header, then each primitive aligned to its
-// size from the end of the header, strings with their NUL counted.
-class CdrWriter {
- public:
-  CdrWriter() { b_ = std::string("\x00\x01\x00\x00", 4); }
-  template <typename T>
-  CdrWriter& put(T v) {
-    while ((b_.size() - 4) % sizeof(T)) b_.push_back('\0');
-    b_.append(reinterpret_cast<const char*>(&v), sizeof(T));
-    return *this;
-  }
-  CdrWriter& str(const std::string& s) {
-    put<std::uint32_t>(static_cast<std::uint32_t>(s.size() + 1));
-    b_ += s;
-    b_.push_back('\0');
-    return *this;
-  }
-  CdrWriter& raw(const std::string& s) {
-    b_ += s;
-    return *this;
-  }
-  CdrWriter& header(std::int32_t sec, std::uint32_t nsec, const std::string& frame) { return put(sec).put(nsec).str(frame); }
-  const std::string& bytes() const { return b_; }
-
- private:
-  std::string b_;
-};
 
 }  // namespace
 
@@ -203,6 +178,89 @@ TEST(RosPointCloud2, DecodesCdrWithItsAlignment) {
   std::string be = w.bytes();
   be[1] = '\0';
   EXPECT_NE(pl::test::error_of([&] { ros::decode_point_cloud2(be, Encoding::Cdr, "c"); }).find("big-endian CDR"), std::string::npos);
+}
+
+// A CDR cloud of `n` points along a sweep: x y z f32, then one time field of `type` at offset 12,
+// point k's value value(k) (the stamp is 1700000000.5 s).
+std::string timed_cloud(const std::string& field, std::uint8_t type, int n, const std::function<double(int)>& value) {
+  const std::uint32_t size = type == 8 ? 8 : 4, step = 12 + size;
+  CdrWriter w;
+  w.header(1700000000, 500000000, "lidar").put<std::uint32_t>(1).put<std::uint32_t>(static_cast<std::uint32_t>(n)).put<std::uint32_t>(4);
+  const char* names[] = {"x", "y", "z"};
+  for (int k = 0; k < 3; ++k) w.str(names[k]).put<std::uint32_t>(4u * static_cast<std::uint32_t>(k)).put<std::uint8_t>(7).put<std::uint32_t>(1);
+  w.str(field).put<std::uint32_t>(12).put<std::uint8_t>(type).put<std::uint32_t>(1);
+  w.put<std::uint8_t>(0).put<std::uint32_t>(step).put<std::uint32_t>(step * static_cast<std::uint32_t>(n));
+  w.put<std::uint32_t>(step * static_cast<std::uint32_t>(n));
+  std::string data;
+  for (int k = 0; k < n; ++k) {
+    const float xyz[3] = {10.0f * std::cos(0.01f * static_cast<float>(k)), 10.0f * std::sin(0.01f * static_cast<float>(k)), 0.5f};
+    data.append(reinterpret_cast<const char*>(xyz), 12);
+    const double v = value(k);
+    char b[8] = {};
+    if (type == 7) { const float f = static_cast<float>(v); std::memcpy(b, &f, 4); }
+    if (type == 8) std::memcpy(b, &v, 8);
+    if (type == 6) { const auto u = static_cast<std::uint32_t>(v); std::memcpy(b, &u, 4); }
+    data.append(b, size);
+  }
+  w.raw(data).put<std::uint8_t>(1);
+  return w.bytes();
+}
+
+TEST(RosPointCloud2, ATimeFieldThatCarriesNoTimeIsSetAsideSayingWhy) {
+  // The Velodyne layout's time, all zero as several drivers and converters leave it.
+  const ros::PointCloud zero = ros::decode_point_cloud2(timed_cloud("time", 7, 100, [](int) { return 0.0; }), Encoding::Cdr, "c");
+  EXPECT_EQ(zero.points.size(), 100u);
+  EXPECT_TRUE(zero.times.empty());
+  EXPECT_EQ(zero.time_field, "time (float32)");
+  EXPECT_NE(zero.time_set_aside.find("all its values are 0"), std::string::npos) << zero.time_set_aside;
+  // A constant other than zero, and one that spreads over 2.5 ms of a 100 ms sweep.
+  const ros::PointCloud constant = ros::decode_point_cloud2(timed_cloud("t", 6, 50, [](int) { return 12345.0; }), Encoding::Cdr, "c");
+  EXPECT_TRUE(constant.times.empty());
+  EXPECT_NE(constant.time_set_aside.find("12345"), std::string::npos) << constant.time_set_aside;
+  const auto sliver = timed_cloud("time", 7, 100, [](int k) { return 2.5e-5 * k; });
+  const ros::PointCloud thin = ros::decode_point_cloud2(sliver, Encoding::Cdr, "c", ros::SweepBounds::around(0.1));
+  EXPECT_TRUE(thin.times.empty());
+  EXPECT_NE(thin.time_set_aside.find("span a sweep"), std::string::npos) << thin.time_set_aside;
+  // One value that is not a number sets the field aside.
+  const auto nan_at_50 = [](int k) { return k == 50 ? std::nan("") : 0.001 * k; };
+  const ros::PointCloud nan = ros::decode_point_cloud2(timed_cloud("time", 7, 100, nan_at_50), Encoding::Cdr, "c");
+  EXPECT_TRUE(nan.times.empty());
+  EXPECT_NE(nan.time_set_aside.find("not finite"), std::string::npos) << nan.time_set_aside;
+  // Without a known rate the same 2.5 ms are a (narrow) sweep.
+  EXPECT_EQ(ros::decode_point_cloud2(sliver, Encoding::Cdr, "c").times.size(), 100u);
+}
+
+TEST(RosPointCloud2, TheTimeUnitComesFromTheFieldsTypeAndItsSpreadOverASweep) {
+  const auto bounds = ros::SweepBounds::around(0.1);
+  // float32 milliseconds over a 100 ms sweep: read as ms, not as 99 s.
+  const ros::PointCloud ms = ros::decode_point_cloud2(timed_cloud("time", 7, 100, [](int k) { return 1.0 * k; }), Encoding::Cdr, "c", bounds);
+  ASSERT_EQ(ms.times.size(), 100u);
+  EXPECT_EQ(ms.time_unit, "ms, from the stamp");
+  EXPECT_NEAR(ms.times[99], 0.099, 1e-7);
+  EXPECT_NEAR(ms.time_span_s, 0.099, 1e-9);
+  // nebula's time_stamp: uint32 nanoseconds from the stamp.
+  const ros::PointCloud ns = ros::decode_point_cloud2(timed_cloud("time_stamp", 6, 100, [](int k) { return 1e6 * k; }), Encoding::Cdr, "c", bounds);
+  ASSERT_EQ(ns.times.size(), 100u);
+  EXPECT_EQ(ns.time_unit, "ns, from the stamp");
+  EXPECT_NEAR(ns.times[50], 0.05, 1e-7);
+  // Microseconds in a uint32 (spreading over 100,000 of them).
+  const ros::PointCloud us = ros::decode_point_cloud2(timed_cloud("offset_time", 6, 100, [](int k) { return 1000.0 * k; }), Encoding::Cdr, "c", bounds);
+  EXPECT_EQ(us.time_unit, "us, from the stamp");
+  EXPECT_NEAR(us.times[99], 0.099, 1e-7);
+  // float64 seconds since 1970 (Hesai) and float64 nanoseconds since 1970 (Livox): made relative to the stamp.
+  const ros::PointCloud abs_s =
+      ros::decode_point_cloud2(timed_cloud("timestamp", 8, 100, [](int k) { return 1700000000.5 + 0.001 * k; }), Encoding::Cdr, "c", bounds);
+  EXPECT_EQ(abs_s.time_unit, "s, absolute");
+  EXPECT_NEAR(abs_s.times[0], 0.0, 1e-6);
+  EXPECT_NEAR(abs_s.times[99], 0.099, 1e-6);
+  const ros::PointCloud abs_ns = ros::decode_point_cloud2(
+      timed_cloud("timestamp", 8, 100, [](int k) { return 1700000000.5e9 - 5e7 + 1e6 * k; }), Encoding::Cdr, "c", bounds);
+  EXPECT_EQ(abs_ns.time_unit, "ns, absolute");
+  EXPECT_NEAR(abs_ns.times[0], -0.05, 1e-6);  // before the stamp: a driver that stamps the sweep's middle
+  // Values that are a sweep in no unit: a uint32 spreading over 0.5 s of nanoseconds at 10 Hz.
+  const ros::PointCloud wide = ros::decode_point_cloud2(timed_cloud("t", 6, 100, [](int k) { return 5e6 * k; }), Encoding::Cdr, "c", bounds);
+  EXPECT_TRUE(wide.times.empty());
+  EXPECT_NE(wide.time_set_aside.find("in no unit"), std::string::npos) << wide.time_set_aside;
 }
 
 TEST(RosMessages, DecodeOdometryNavSatFixTwistImuAndTf) {

@@ -7,7 +7,10 @@
 # TUM file, e.g. `pl-dataset poses DRIVE --format tum`), /gps/fix (sensor_msgs/NavSatFix from OXTS),
 # /tf_static (velodyne -> oxts: the IMU/antenna in the LiDAR frame). Stamps are the drive's absolute
 # OXTS times. Usage: kitti_to_recordings.py DRIVE_DIR GT_TUM OUT_STEM [--formats bag,ros2,mcap]
-#   [--bag-compression lz4|bz2|none]
+#   [--bag-compression lz4|bz2|none] [--layout pl|velodyne-zero-time|pcl-xyzi]
+# --layout velodyne-zero-time writes the clouds as the Velodyne driver lays them out (x y z intensity
+# float32, ring uint16, time float32) with every time 0, as several drivers and converters leave it;
+# --layout pcl-xyzi as PCL's PointXYZI (x y z, 4 bytes of padding, intensity, point_step 32; no ring).
 import argparse
 import datetime
 import math
@@ -30,6 +33,7 @@ ap.add_argument('truth')
 ap.add_argument('out')
 ap.add_argument('--formats', default='bag,ros2,mcap')
 ap.add_argument('--bag-compression', default='lz4', choices=['none', 'bz2', 'lz4'])
+ap.add_argument('--layout', default='pl', choices=['pl', 'velodyne-zero-time', 'pcl-xyzi'])
 a = ap.parse_args()
 F = sm.PointField
 
@@ -122,6 +126,13 @@ tf.transforms.append(x)
 messages.append(('/tf_static', 'tf2_msgs/TFMessage', times[0], tf))
 fields = [F('x', 0, F.FLOAT32, 1), F('y', 4, F.FLOAT32, 1), F('z', 8, F.FLOAT32, 1), F('intensity', 12, F.FLOAT32, 1),
           F('ring', 16, F.UINT16, 1)]
+step = 18
+if a.layout == 'velodyne-zero-time':
+    fields.append(F('time', 18, F.FLOAT32, 1))
+    step = 22
+if a.layout == 'pcl-xyzi':
+    fields = [F('x', 0, F.FLOAT32, 1), F('y', 4, F.FLOAT32, 1), F('z', 8, F.FLOAT32, 1), F('intensity', 16, F.FLOAT32, 1)]
+    step = 32
 for i, name in enumerate(names):
     frame = int(name[:-4])
     raw = open(os.path.join(scans_dir, name), 'rb').read()
@@ -129,13 +140,16 @@ for i, name in enumerate(names):
     vals = struct.unpack('<%df' % (4 * n), raw)
     xs, ys = vals[0::4], vals[1::4]
     rings = rings_from_azimuth(xs, ys)
-    data = bytearray(18 * n)
+    data = bytearray(step * n)  # the time field, where there is one, and padding stay 0
     for k in range(n):
-        struct.pack_into('<4fH', data, 18 * k, vals[4 * k], vals[4 * k + 1], vals[4 * k + 2], vals[4 * k + 3], rings[k])
+        if a.layout == 'pcl-xyzi':
+            struct.pack_into('<3f4xf', data, step * k, vals[4 * k], vals[4 * k + 1], vals[4 * k + 2], vals[4 * k + 3])
+        else:
+            struct.pack_into('<4fH', data, step * k, vals[4 * k], vals[4 * k + 1], vals[4 * k + 2], vals[4 * k + 3], rings[k])
     c = sm.PointCloud2()
     c.header = header(times[frame], 'velodyne')
     c.height, c.width, c.fields, c.is_bigendian = 1, n, fields, False
-    c.point_step, c.row_step, c.data, c.is_dense = 18, 18 * n, bytes(data), True
+    c.point_step, c.row_step, c.data, c.is_dense = step, step * n, bytes(data), True
     messages.append(('/velodyne_points', 'sensor_msgs/PointCloud2', times[frame] + 50000000, c))
     t = truth[i]
     o = nm.Odometry()

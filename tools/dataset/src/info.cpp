@@ -152,6 +152,7 @@ std::string dataset_info_text(const Dataset& ds, const nlohmann::json& j) {
                   ri.topics.empty() ? "-" : [&] { for (const auto& t : ri.topics) if (t.use == "scans") return t.name.c_str(); return "-"; }(),
                   ds.has_point_times() ? " with per-point times" : "", ds.odometry.empty() ? "none (LiDAR odometry)" : "from the odometry topic",
                   ds.gps.empty() ? "none" : "from the NavSatFix topic");
+    if (!ri.point_times.empty()) append_format(out, "point times    %s\n", ri.point_times.c_str());
     for (const auto& n : ri.notes) append_format(out, "note           %s\n", n.c_str());
   }
   return out;

@@ -82,6 +82,7 @@ struct RecordingInfo {
   };
   std::vector<TopicUse> topics;
   std::string lidar_frame, base_frame, gps_frame;
+  std::string point_times;         // the clouds' time field: its unit and sweep, or why it was set aside
   std::vector<std::string> notes;  // choices made and what was missing
 };
 

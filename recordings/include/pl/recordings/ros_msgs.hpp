@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <string>
@@ -33,18 +34,33 @@ Header decode_header(std::string_view bytes, bag::Encoding encoding, const std::
 
 // A PointCloud2 as a scan: the finite points (an organised cloud's NaN "no return" points dropped),
 // their intensities (field intensity, else reflectivity, else 0), and, when the cloud has them, each
-// point's ring (field ring, or Livox's line) and its time in seconds from the header's stamp (fields
-// t: u32 ns from the stamp (Ouster); time: f32 s from the stamp (Velodyne); timestamp: f64 absolute
-// seconds or nanoseconds (Hesai, Livox, Robosense), made relative).
+// point's ring (field ring, or Livox's line) and its time in seconds from the header's stamp. The
+// time field is the first of t (Ouster), time (Velodyne, RoboSense), timestamp (Hesai, Livox),
+// time_stamp (nebula), time_offset, offset_time; its unit comes from its type and from the spread
+// its values must have over a sweep (float: s, ms, us or ns; integer: ns, us or ms), and values near
+// the stamp are absolute and made relative. A field that spreads over no sweep (constant, all zero,
+// or far from one rotation in any unit) is set aside: `times` stays empty and `time_set_aside` says why.
 struct PointCloud {
   Header header;
   Scan points;
   std::vector<std::uint16_t> rings;  // empty when the cloud has no ring field
-  std::vector<float> times;          // empty when the cloud has no time field
+  std::vector<float> times;          // empty when the cloud has no time field, or it was set aside
+  std::string time_field;            // "t (uint32)": the field read for times; empty when none
+  std::string time_unit;             // "ns, from the stamp", "s, absolute", ... when times were kept
+  double time_span_s = 0;            // the sweep the kept times span
+  std::string time_set_aside;        // why the time field's values are not per-point times
   std::size_t dropped = 0;           // points left out: a coordinate not finite
   std::vector<std::string> fields;   // the cloud's field names, in order
 };
-PointCloud decode_point_cloud2(std::string_view bytes, bag::Encoding encoding, const std::string& name);
+// The spread a sweep's per-point times may have: without a known rotation rate, anything from a
+// sliver of a rotation to a whole second; with one (SweepBounds::around), 0.2 to 2 periods.
+struct SweepBounds {
+  double min_s = 0.002;
+  double max_s = 1.0;
+  static SweepBounds around(double period_s) { return {0.2 * period_s, std::min(1.0, 2.0 * period_s)}; }
+};
+PointCloud decode_point_cloud2(std::string_view bytes, bag::Encoding encoding, const std::string& name,
+                               const SweepBounds& sweep = {});
 
 // nav_msgs/Odometry: the pose of child_frame_id in header.frame_id, and the velocity in child_frame_id.
 struct Odometry {
