@@ -1,8 +1,8 @@
-# cmake --install: headers, the libraries as PointLocalization::common, ::recordings, ::schema, ::registration,
+# cmake --install: headers, the libraries as PointLocalization::common, ::lidar, ::recordings, ::schema, ::registration,
 # ::client, ::map_updates, ::maps, ::server, the command-line tools, and a package config for find_package.
 include(CMakePackageConfigHelpers)
 
-set(pl_exported pl_common pl_recordings pl_schema pl_registration pl_client pl_map_updates pl_maps pl_server)
+set(pl_exported pl_common pl_lidar pl_recordings pl_schema pl_registration pl_client pl_map_updates pl_maps pl_server)
 foreach(target IN LISTS pl_exported)
   string(REGEX REPLACE "^pl_" "" name ${target})
   set_target_properties(${target} PROPERTIES EXPORT_NAME ${name})

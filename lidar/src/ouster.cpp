@@ -1,0 +1,11 @@
+// Ouster packets (placeholder until its decoder lands).
+#include "decoders.hpp"
+#include "pl/common/error.hpp"
+
+namespace pl::lidar {
+
+std::unique_ptr<PacketDecoder> make_ouster_decoder(const DecoderOptions&) {
+  throw Error("Ouster packets are not decoded yet");
+}
+
+}  // namespace pl::lidar

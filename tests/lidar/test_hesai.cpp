@@ -1,0 +1,1 @@
+// Tests of the hesai decoder land with it.

@@ -1,0 +1,1 @@
+// Tests of the robosense decoder land with it.

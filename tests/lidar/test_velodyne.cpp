@@ -1,0 +1,1 @@
+// Tests of the velodyne decoder land with it.
