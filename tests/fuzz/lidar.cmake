@@ -1,7 +1,8 @@
 # The LiDAR packet decoders (lidar/src/): one target per vendor. Each input is a run of packets (and a
 # calibration file), fed to one decoder.
 pl_fuzzed_sources(pl_lidar lidar/src/decoder.cpp)
-# velodyne: pl_add_fuzzer(velodyne_packets SOURCES fuzz_velodyne_packets.cpp LIBS pl_lidar)
+pl_fuzzed_sources(pl_lidar lidar/src/velodyne.cpp lidar/src/velodyne_calibration.cpp lidar/src/velodyne_clock.cpp lidar/src/velodyne_geometry.cpp lidar/src/velodyne_model.cpp lidar/src/velodyne_sweep.cpp)
+pl_add_fuzzer(velodyne_packets SOURCES fuzz_velodyne_packets.cpp LIBS pl_lidar)
 # hesai: pl_add_fuzzer(hesai_packets SOURCES fuzz_hesai_packets.cpp LIBS pl_lidar)
 # robosense: pl_add_fuzzer(robosense_packets SOURCES fuzz_robosense_packets.cpp LIBS pl_lidar)
 # ouster: pl_add_fuzzer(ouster_packets SOURCES fuzz_ouster_packets.cpp LIBS pl_lidar)
