@@ -50,6 +50,7 @@ void VelodyneSweeper::emit(OpenSweep& s, std::vector<Sweep>& out, DecodeCounts& 
     }
     ++counts.sweeps;
     counts.points += s.sweep.points.size();
+    expected_points_ = s.sweep.points.size() + s.sweep.points.size() / 8 + 1024;
     out.push_back(std::move(s.sweep));
   }
   s = OpenSweep{};
@@ -170,6 +171,7 @@ void VelodyneSweeper::add(const std::uint8_t* packet, const VelodyneLayout& layo
       pt.elevation_deg = geometry.elevation_deg(laser);
       pt.distance_m = distance;
       pt.time_s = static_cast<double>(t - s.first_ns) * 1e-9;
+      if (s.sweep.points.capacity() == 0) s.sweep.points.reserve(expected_points_);
       s.sweep.points.push_back(pt);
     }
   }

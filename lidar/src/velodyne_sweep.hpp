@@ -55,6 +55,7 @@ class VelodyneSweeper {
   std::int64_t previous_ns_ = 0;
   double rate_ = 0;
   double sweep_end_ = 0;  // unwrapped azimuth where the current sweep ends
+  std::size_t expected_points_ = 1024;  // room made in a sweep's vector: the last sweep's and an eighth
   OpenSweep current_, next_;
 };
 
