@@ -9,9 +9,10 @@
 // The model is told by the packet's product id (factory byte 1205); the HDL-64E sends none, so its
 // model comes from DecoderOptions::model. Each firing's azimuth is its block's plus its share of the
 // step to the next column (by its firing time); a sweep holds every firing from one crossing of
-// cut_azimuth_deg by that azimuth to the next. Sweep::stamp_ns is the time of its first firing by the
-// sensor's clock (UTC when the sensor is synchronised, else anchored to the receive stamps: see
-// velodyne_clock.hpp); a point's time_s is its firing's time after that, from the model's firing table.
+// cut_azimuth_deg by that azimuth to the next. Sweep::stamp_ns is the time of its first firing: by the
+// sensor's clock when that is UTC (its time past the hour within a second of the receive stamp), else
+// the receive stamp of the packet holding it, plus the firing's offset (velodyne_clock.hpp); a point's
+// time_s is its firing's time after that, by the sensor's clock and the model's firing table.
 #include <optional>
 
 #include "decoders.hpp"
@@ -69,8 +70,8 @@ class VelodyneDecoder final : public PacketDecoder {
     PacketFacts facts;
     std::string problem;
     if (!check(p, facts, problem)) return skip(problem);
-    sweeper_.add(p, layouts_[facts.dual], facts.single, clock_.packet_ns(facts.toh_us, stamp_ns), *geometry_, out,
-                 counts_);
+    const VelodyneClock::Times t = clock_.packet(facts.toh_us, stamp_ns);
+    sweeper_.add(p, layouts_[facts.dual], facts.single, t.stamp_ns, t.sensor_ns, *geometry_, out, counts_);
   }
 
   void finish(std::vector<Sweep>& out) override { sweeper_.finish(out, counts_); }
@@ -125,7 +126,7 @@ class VelodyneDecoder final : public PacketDecoder {
       throw Error(format_text("%s packets (product id 0x%02X) are not decoded here; Velodyne models decoded: %s",
                               other, product, velodyne_model_names().c_str()));
     throw Error(format_text("Velodyne packets whose product id (byte 1205 = 0x%02X) names no model: set the "
-                            "model (HDL-64E S2, HDL-64E S3, or HDL-32E of firmware before 2.2.20)",
+                            "model (--lidar-model HDL-64E S2, HDL-64E S3, or HDL-32E of firmware before 2.2.20)",
                             product));
   }
 

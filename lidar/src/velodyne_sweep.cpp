@@ -43,7 +43,7 @@ void VelodyneSweeper::start_at(double turned) {
 
 void VelodyneSweeper::emit(OpenSweep& s, std::vector<Sweep>& out, DecodeCounts& counts) {
   if (!s.sweep.points.empty()) {
-    s.sweep.stamp_ns = s.earliest_ns;
+    s.sweep.stamp_ns = s.earliest_stamp_ns;
     if (s.earliest_ns != s.first_ns) {
       const double shift = static_cast<double>(s.first_ns - s.earliest_ns) * 1e-9;
       for (Point& pt : s.sweep.points) pt.time_s += shift;
@@ -63,7 +63,7 @@ void VelodyneSweeper::finish(std::vector<Sweep>& out, DecodeCounts& counts) {
 }
 
 void VelodyneSweeper::unwrap_columns(const std::uint8_t* packet, const VelodyneLayout& layout,
-                                     std::int64_t packet_ns, std::vector<Sweep>& out, DecodeCounts& counts) {
+                                     std::int64_t sensor_ns, std::vector<Sweep>& out, DecodeCounts& counts) {
   const int columns = layout.columns;
   bool seen[12] = {};
   for (int b = 0; b < kVelodyneBlocks; ++b) {
@@ -72,7 +72,7 @@ void VelodyneSweeper::unwrap_columns(const std::uint8_t* packet, const VelodyneL
     seen[c] = true;
     azimuth_[c] = u16(packet + 100 * b + 2);
   }
-  const std::int64_t first_ns = packet_ns + layout.firing_ns[0][0];
+  const std::int64_t first_ns = sensor_ns + layout.firing_ns[0][0];
   const double dt_us = static_cast<double>(first_ns - previous_ns_) / 1000;
   if (have_previous_ && std::abs(dt_us) >= kGapUs) {
     emit(current_, out, counts);
@@ -127,14 +127,14 @@ void VelodyneSweeper::unwrap_columns(const std::uint8_t* packet, const VelodyneL
   have_previous_ = true;
   previous_azimuth_ = azimuth_[columns - 1];
   previous_turned_ = turned_[columns - 1];
-  previous_ns_ = packet_ns + layout.firing_ns[0][0] + shift_ns_[columns - 1] +
+  previous_ns_ = sensor_ns + layout.firing_ns[0][0] + shift_ns_[columns - 1] +
                  static_cast<std::int64_t>(std::llround((columns - 1) * static_cast<double>(layout.column_us) * 1000));
 }
 
 void VelodyneSweeper::add(const std::uint8_t* packet, const VelodyneLayout& layout, ReturnType single,
-                          std::int64_t packet_ns, const VelodyneGeometry& geometry, std::vector<Sweep>& out,
-                          DecodeCounts& counts) {
-  unwrap_columns(packet, layout, packet_ns, out, counts);
+                          std::int64_t stamp_ns, std::int64_t sensor_ns, const VelodyneGeometry& geometry,
+                          std::vector<Sweep>& out, DecodeCounts& counts) {
+  unwrap_columns(packet, layout, sensor_ns, out, counts);
   for (int b = 0; b < kVelodyneBlocks; ++b) {
     const VelodyneLayout::Block& role = layout.blocks[b];
     if (!role.used) continue;
@@ -145,13 +145,14 @@ void VelodyneSweeper::add(const std::uint8_t* packet, const VelodyneLayout& layo
     const double turned = turned_[role.column];
     for (int j = 0; j < kVelodyneSlots; ++j) {
       const float share = step * layout.interp_mul[b][j] / layout.interp_div;
-      const std::int64_t t = packet_ns + layout.firing_ns[b][j] + shift_ns_[role.column];
+      const std::int64_t after_ns = layout.firing_ns[b][j] + shift_ns_[role.column];
+      const std::int64_t t = sensor_ns + after_ns;
       OpenSweep& s = turned + share < sweep_end_ ? current_ : next_;
-      if (!s.fired) {
+      if (!s.fired || t < s.earliest_ns) {
+        if (!s.fired) s.first_ns = t;
         s.fired = true;
-        s.first_ns = s.earliest_ns = t;
-      } else if (t < s.earliest_ns) {
         s.earliest_ns = t;
+        s.earliest_stamp_ns = stamp_ns + after_ns;
       }
       const std::uint8_t* ret = block + 4 + 3 * j;
       const std::uint16_t raw = u16(ret);

@@ -2,7 +2,8 @@
 // since the previous packet and the measured rotation rate); each firing's azimuth is its column's
 // plus its share of the step to the next column (by its firing time within the column); a sweep
 // holds every firing from one crossing of the cut azimuth to the next, wherever the packet boundary
-// falls, and its stamp is the time of its first firing.
+// falls. Its stamp is its first firing's on the packets' stamps, its points' times are from that
+// firing on the sensor's time line (velodyne_clock.hpp).
 #pragma once
 
 #include <cstdint>
@@ -18,24 +19,26 @@ class VelodyneSweeper {
  public:
   explicit VelodyneSweeper(const DecoderOptions& options);
 
-  // One packet whose blocks match `layout`; `single` is the return type of single-return packets.
-  // Sweeps it completes go to `out`, counted in `counts`.
-  void add(const std::uint8_t* packet, const VelodyneLayout& layout, ReturnType single, std::int64_t packet_ns,
-           const VelodyneGeometry& geometry, std::vector<Sweep>& out, DecodeCounts& counts);
+  // One packet whose blocks match `layout`, with its stamp and its time on the sensor's time line;
+  // `single` is the return type of single-return packets. Sweeps it completes go to `out`.
+  void add(const std::uint8_t* packet, const VelodyneLayout& layout, ReturnType single, std::int64_t stamp_ns,
+           std::int64_t sensor_ns, const VelodyneGeometry& geometry, std::vector<Sweep>& out, DecodeCounts& counts);
   // The open sweeps (with points), then a fresh start.
   void finish(std::vector<Sweep>& out, DecodeCounts& counts);
   // Measured rotation, 0.01 degree per microsecond (0 until two columns were seen).
   double rate() const { return rate_; }
 
  private:
+  // A sweep being filled: its first firing on the sensor's time line (the points' times count from
+  // it), and its earliest (should one come later) on both.
   struct OpenSweep {
     Sweep sweep;
     bool fired = false;
-    std::int64_t first_ns = 0, earliest_ns = 0;
+    std::int64_t first_ns = 0, earliest_ns = 0, earliest_stamp_ns = 0;
   };
 
   // Unwraps the packet's columns; false when the packet follows a gap of a second or more.
-  void unwrap_columns(const std::uint8_t* packet, const VelodyneLayout& layout, std::int64_t packet_ns,
+  void unwrap_columns(const std::uint8_t* packet, const VelodyneLayout& layout, std::int64_t sensor_ns,
                       std::vector<Sweep>& out, DecodeCounts& counts);
   void start_at(double turned);
   void emit(OpenSweep& s, std::vector<Sweep>& out, DecodeCounts& counts);
@@ -48,7 +51,7 @@ class VelodyneSweeper {
   double turned_[12] = {};
   float step_[12] = {};
   std::int64_t shift_ns_[12] = {};  // a column's firing time beyond the table's (after a jump)
-  // The previous packet's last column.
+  // The previous packet's last column (its time on the sensor's time line).
   bool have_previous_ = false;
   int previous_azimuth_ = 0;
   double previous_turned_ = 0;

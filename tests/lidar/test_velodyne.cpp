@@ -445,6 +445,32 @@ TEST(VelodyneDecoder, RangeLimitsAndTheSensorsClock) {
   EXPECT_NEAR(last, (1327 + 11 * 110.592 + 55.296 + 3 * 2.304) * 1e-6, 2e-9);
 }
 
+TEST(VelodyneDecoder, ADecoderStartedMidStreamStampsSweepsAlike) {
+  // A free-running sensor clock and jittery receive stamps: whole sweeps decode the same wherever
+  // decoding starts (a recording's scans are decoded again from a few sweeps back).
+  std::vector<Firing> firings;
+  const auto packets = vlp16_stream(200, 0, 40, 100'000'000, firings);
+  auto decode_from = [&](std::size_t first) {
+    auto d = make_decoder(Vendor::Velodyne, options(plain_calibration(16)));
+    std::vector<Sweep> sweeps;
+    for (std::size_t k = first; k < packets.size(); ++k)
+      d->add(packets[k], kHourNs + 1'900'000'000'000 + static_cast<std::int64_t>(k) * 1'327'104 + (k * 7919) % 300'000, sweeps);
+    return sweeps;
+  };
+  const auto all = decode_from(0), later = decode_from(40);
+  // 2.67 turns from 0 degrees, the last still open; from packet 40 (192 degrees) a part turn first.
+  ASSERT_EQ(all.size(), 2u);
+  ASSERT_EQ(later.size(), 2u);
+  EXPECT_LT(later[0].points.size(), all[0].points.size());
+  const Sweep &a = all[1], &b = later[1];
+  EXPECT_EQ(a.stamp_ns, b.stamp_ns);
+  ASSERT_EQ(a.points.size(), b.points.size());
+  for (std::size_t i = 0; i < a.points.size(); ++i) {
+    ASSERT_EQ(a.points[i].x, b.points[i].x);
+    ASSERT_EQ(a.points[i].time_s, b.points[i].time_s);
+  }
+}
+
 TEST(VelodyneDecoder, AJumpWithinAPacketIsTimedByTheRotation) {
   // A VLP-32C sending only part of its turn fills a packet's last blocks after the gap.
   auto d = make_decoder(Vendor::Velodyne, options(plain_calibration(32), 180));
