@@ -3,10 +3,12 @@
 // azimuth; dual returns; the model told by the packets; damaged packets skipped; calibration errors.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <string>
 #include <vector>
 
