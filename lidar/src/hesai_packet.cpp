@@ -113,8 +113,8 @@ const HesaiLayout* identify_hesai_packet(std::string_view p, std::string& why) {
 }
 
 bool read_hesai_packet(const HesaiLayout& l, std::string_view p, HesaiPacket& out, std::string& problem) {
-  if (p.size() < static_cast<std::size_t>(l.min_bytes) || p.size() > static_cast<std::size_t>(l.max_bytes)) {
-    problem = format_text("a %s packet has %d to %d bytes, this one %zu", l.name, l.min_bytes, l.max_bytes, p.size());
+  if (p.size() != static_cast<std::size_t>(l.min_bytes) && p.size() != static_cast<std::size_t>(l.max_bytes)) {
+    problem = format_text("a %s packet has %d or %d bytes, this one %zu", l.name, l.min_bytes, l.max_bytes, p.size());
     return false;
   }
   int unit_mm = 4;

@@ -31,8 +31,8 @@ struct HesaiLayout {
   int micros_at;
   int date_at;
   int loop_flag_at;       // QT128: which firing sequence a dual-return packet holds; -1: none
-  int min_bytes;          // without the optional trailers (UDP sequence, signature)
-  int max_bytes;
+  int min_bytes;          // the packet's length without its optional trailer (UDP sequence, signature)
+  int max_bytes;          // and with it
   double min_range_m;     // the model's measuring range (its data sheet; the makers' driver applies it too)
   double max_range_m;
 
