@@ -79,11 +79,12 @@ std::int32_t hesai_firing_offset_ns(HesaiModel model, int block, int channel, in
     case HesaiModel::PandarXT32: return ns(5.632 - 50.0 * rounds_before_last + 0.368 + 1.512 * channel);
     case HesaiModel::PandarXT32M: return ns(5.632 - 50.0 * rounds_before_last + 0.368 + 2.888 * (channel % 16));
     case HesaiModel::PandarQT128: {
-      // Single return: block 1 holds sequence 1, fired 111.11 us after block 2's sequence 2 (as the
-      // makers' driver times it). Dual return: both blocks hold one round, of the sequence the tail's
-      // mode flag names, and share its time (the driver's operator precedence puts block 1 55.6 us later).
+      // Rounds 111.11 us apart after the packet's time. Single return: block 1 holds sequence 1, block 2
+      // sequence 2; dual return: both blocks hold one round, of the sequence the tail's mode flag names.
+      // (The makers' driver times block 1 after block 2, against their azimuths, and in dual return
+      // 55.6 us apart, by operator precedence.)
       const bool first_sequence = returns == 1 ? block % 2 == 0 : loop == 1;
-      const double round_us = 9.0 + (returns == 1 && block == 0 ? 111.11 : 0.0);
+      const double round_us = 9.0 + 111.11 * rounds_after_first;
       return ns(round_us + (first_sequence ? kQt128Sequence1Us[channel] : kQt128Sequence2Us[channel]));
     }
   }
