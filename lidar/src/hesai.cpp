@@ -136,8 +136,9 @@ class HesaiDecoder final : public PacketDecoder {
         Sweep& sweep = cutter_->sweep_of(c);
         for (int r = 0; r < p.returns; ++r) {
           const int block = first + r;
-          const float d = static_cast<float>(p.distance(block, c) * p.unit_m);
-          if (p.distance(block, c) == 0 || d < min_m_ || d > max_m_) continue;
+          const std::uint16_t raw = p.distance(block, c);
+          const float d = static_cast<float>(raw * p.unit_m);
+          if (raw == 0 || d < min_m_ || d > max_m_) continue;
           const ReturnType type = return_type(p, first, c, r);
           if (r != p.returns - 1 && (type == ReturnType::Identical || near_another_return(p, first, c, r, d))) continue;
           Point& pt = sweep.points.emplace_back();
