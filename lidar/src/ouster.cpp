@@ -147,6 +147,8 @@ class OusterDecoder final : public PacketDecoder {
     return d > 0 && d <= kStaleFrames;
   }
 
+  std::size_t beams() const { return static_cast<std::size_t>(m_.pixels_per_column); }
+
   bool in_window(int c) const {
     const int a = m_.column_window_first, b = m_.column_window_last;
     return a <= b ? (c >= a && c <= b) : (c >= a || c <= b);
@@ -187,10 +189,12 @@ class OusterDecoder final : public PacketDecoder {
     slots_left_ = slots_wanted_;
     earliest_ts_ = UINT64_MAX;
     earliest_receive_ns_ = 0;
+    // As many points as the last frame had (before one: a return a pixel, up to 256 Ki points).
+    const std::size_t expect = last_size_ ? last_size_ : std::min<std::size_t>(column_ts_.size() * beams(), 1u << 18);
     sweep_.points.clear();
-    sweep_.points.reserve(last_size_);
+    sweep_.points.reserve(expect);
     point_column_.clear();
-    point_column_.reserve(last_size_);
+    point_column_.reserve(expect);
   }
 
   void add_column(const std::uint8_t* col, std::int64_t receive_ns) {

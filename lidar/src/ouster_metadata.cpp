@@ -232,6 +232,8 @@ Metadata parse_metadata(std::string_view text, const std::string& name) {
     const std::size_t at = std::min<std::size_t>(e.byte > 0 ? e.byte - 1 : 0, text.size());
     const auto line = 1 + static_cast<std::size_t>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
     fail_at(name, line, "the sensor's metadata JSON (" + std::string(e.what()) + ")");
+  } catch (const json::exception& e) {  // a number beyond a double, and the like: no position given
+    fail_at(name, 0, "the sensor's metadata JSON (" + std::string(e.what()) + ")");
   }
   if (!root.is_object()) fail_at(name, 1, "a JSON object (the Ouster sensor's metadata)", shown(root));
   const Fields f(root, text, name);
