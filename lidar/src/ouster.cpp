@@ -156,12 +156,17 @@ class OusterDecoder final : public PacketDecoder {
 
   bool well_formed(std::string_view packet) {
     const std::size_t want = layout_.packet_size();
-    // ouster_ros before 0.10 recorded one byte more than the packet: it is left alone.
+    // Older ouster_ros drivers recorded one byte more than the packet: it is left alone.
     if (packet.size() != want && packet.size() != want + 1) {
       std::string why = std::to_string(packet.size()) + " bytes, not a " + std::to_string(want) + "-byte " +
                         profile_name(m_.profile) + " lidar packet of " + std::to_string(m_.pixels_per_column) +
                         " beams x " + std::to_string(m_.columns_per_packet) + " columns";
-      if (packet.size() == 48) why += " (an IMU packet)";
+      if (packet.size() == 48 || packet.size() == 49) why += " (an IMU packet)";
+      for (Profile other : {Profile::Legacy, Profile::Single, Profile::Dual, Profile::LowData}) {
+        const std::size_t size = PacketLayout(other, m_.pixels_per_column, m_.columns_per_packet).packet_size();
+        if (other != m_.profile && (packet.size() == size || packet.size() == size + 1))
+          why += std::string(" (the size of ") + profile_name(other) + " packets: is the metadata's udp_profile_lidar the sensor's?)";
+      }
       skip(why);
       return false;
     }

@@ -273,10 +273,23 @@ TEST(OusterDecoder, DamagedAndForeignPacketsAreSkippedAndCounted) {
   EXPECT_EQ(d->counts().packets, bad.size() + f.size());
 }
 
+TEST(OusterDecoder, PacketsOfAnotherProfileAreNamed) {
+  ot::Spec s;
+  s.profile = ot::Profile::Single;
+  const auto packets = ot::frame(s, 2, 5'000'000'000, kDt, pattern);
+  s.profile = ot::Profile::Legacy;  // what the metadata says
+  auto d = decoder(s);
+  const auto out = feed(*d, packets);
+  EXPECT_TRUE(out.empty());
+  EXPECT_EQ(d->counts().skipped, packets.size());
+  EXPECT_NE(d->counts().last_problem.find("the size of RNG19_RFL8_SIG16_NIR16 packets"), std::string::npos)
+      << d->counts().last_problem;
+}
+
 TEST(OusterDecoder, OusterRosTrailingByteIsAccepted) {
   const ot::Spec s;
   auto packets = ot::frame(s, 2, 5'000'000'000, kDt, pattern);
-  for (auto& p : packets) p.push_back('\0');  // ouster_ros before 0.10 kept one byte more
+  for (auto& p : packets) p.push_back('\0');  // as older ouster_ros drivers recorded them
   const auto out = feed(*decoder(s), packets);
   ASSERT_EQ(out.size(), 1u);
   expect_pattern(s, out[0], false);
