@@ -15,8 +15,12 @@
 
 #include "pl/common/error.hpp"
 #include "pl/common/scan.hpp"
+#include "pl/common/text.hpp"
 #include "pl/recordings/bag.hpp"
+#include "pl/lidar/beam_table.hpp"
+#include "pl/recordings/packet_msgs.hpp"
 #include "pl/recordings/ros_msgs.hpp"
+#include "packet_scans.hpp"
 
 namespace pl {
 
@@ -28,6 +32,8 @@ class RecordingScans {
   std::string path, topic;
   ros::SweepBounds sweep;       // from the scans' rate
   bool rings_from_order = false;  // no ring field, but the points come laser by laser
+  std::vector<double> beam_table;  // no ring field, points in any order: rings from their elevations
+  std::unique_ptr<PacketScans> packets;  // set when the scans are a LiDAR's packets
   std::mutex mutex;
 };
 
@@ -44,10 +50,21 @@ ros::PointCloud recording_cloud(RecordingScans& rec, std::size_t i) {
 }  // namespace
 
 Frame recording_frame(RecordingScans& rec, std::size_t i, bool with_rings) {
+  if (rec.packets) {
+    std::lock_guard<std::mutex> lock(rec.mutex);
+    Frame f = rec.packets->frame(i);
+    if (!with_rings) f.rings.clear();
+    return f;
+  }
   ros::PointCloud cloud = recording_cloud(rec, i);
   Frame f;
   f.scan = std::move(cloud.points);
-  if (with_rings) f.rings = cloud.rings.empty() && rec.rings_from_order ? rings_from_azimuth(f.scan) : std::move(cloud.rings);
+  if (with_rings && cloud.rings.empty() && rec.rings_from_order)
+    f.rings = rings_from_azimuth(f.scan);
+  else if (with_rings && cloud.rings.empty() && !rec.beam_table.empty())
+    f.rings = rings_from_elevation(f.scan, rec.beam_table);
+  else if (with_rings)
+    f.rings = std::move(cloud.rings);
   f.times = std::move(cloud.times);
   return f;
 }
@@ -112,6 +129,96 @@ class StaticTree {
   }
 };
 
+// A ring-less cloud in any point order: its rings from its points' elevations, against the beam table
+// of the model named (--lidar-model) or of the one model whose table the first scan fits.
+void rings_from_elevation_table(RecordingScans& rec, const Scan& first, int turns, const std::string& model, int& beams, Dataset& ds) {
+  RecordingInfo& info = ds.recording_info;
+  const std::string why = "the clouds have no ring field, and their points do not come laser by laser (" + std::to_string(turns) +
+                          " turns of azimuth in the first scan, not 16, 32, 40, 64 or 128)";
+  std::vector<const lidar::BeamTable*> candidates;
+  if (!model.empty()) {
+    const lidar::BeamTable* t = lidar::nominal_beam_table(model);
+    if (!t) {
+      std::string known;
+      for (const auto& table : lidar::nominal_beam_tables())
+        for (const auto& m : table.models) known += (known.empty() ? "" : ", ") + m;
+      info.notes.push_back(why + "; --lidar-model " + model + " has no fixed beam table (those that have: " + known + "): no beams can be chosen");
+      return;
+    }
+    candidates.push_back(t);
+  }
+  const lidar::BeamTable* t = lidar::find_beam_table(first, candidates);
+  if (!t) {
+    info.notes.push_back(why + ", and their elevations fit " + (model.empty() ? "no known sensor's beams" : "the beams of a " + model) +
+                         ": no beams can be chosen (name the sensor with --lidar-model, or record the driver's ring field)");
+    return;
+  }
+  rec.beam_table = t->elevation_deg;
+  beams = static_cast<int>(t->elevation_deg.size());
+  ds.meta.sensor.vertical_angles_deg = t->elevation_deg;
+  std::string models;
+  for (const auto& m : t->models) models += (models.empty() ? "" : "/") + m;
+  info.notes.push_back(format_text("the clouds have no ring field: rings from the points' elevations against the %s beam table (%.1f %% of "
+                                   "the first scan's points within 0.25 degrees of a beam)",
+                                   models.c_str(), 100.0 * lidar::fit_beams(first, t->elevation_deg).share));
+}
+
+struct Stamped {
+  std::int64_t stamp;
+  bag::MessageRef ref;
+};
+
+// The scans of a PointCloud2 topic in stamp order, and what the first cloud tells of the sensor: its
+// rings and whether its points carry times.
+void describe_clouds(RecordingScans& rec, std::vector<Stamped> scans, const std::string& topic, const std::string& model, Dataset& ds) {
+  RecordingInfo& info = ds.recording_info;
+  if (scans.empty()) throw Error(rec.path + ": " + topic + " has no messages, so no scans");
+  std::stable_sort(scans.begin(), scans.end(), [](const Stamped& a, const Stamped& b) { return a.stamp < b.stamp; });
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    rec.scans.push_back(scans[i].ref);
+    ds.times.push_back(ns_to_seconds(scans[i].stamp));
+    ds.frame_ids.push_back(static_cast<long>(i));
+  }
+
+  // The scans' rate bounds the spread their per-point times may have.
+  if (ds.times.size() > 1) ds.meta.sensor.rate_hz = (ds.times.size() - 1) / std::max(1e-9, ds.times.back() - ds.times.front());
+  if (ds.meta.sensor.rate_hz > 0) rec.sweep = ros::SweepBounds::around(1.0 / ds.meta.sensor.rate_hz);
+
+  // The first scan tells the sensor: its rings and whether its points carry times.
+  const ros::PointCloud first = recording_cloud(rec, 0);
+  int beams = 0;
+  for (std::uint16_t ring : first.rings) beams = std::max(beams, ring + 1);
+  ds.meta.sensor.model = "from " + topic;
+  ds.meta.sensor.point_order = "any";
+  ds.meta.sensor.vertical_angles_deg.clear();
+  if (first.rings.empty() && !first.points.empty()) {
+    // No ring field: where the points come laser by laser (each ring one turn of azimuth, as a KITTI
+    // folder's), the turns are the rings; trusted only when they count a sensor's beams.
+    const std::vector<std::uint16_t> turns = rings_from_azimuth(first.points);
+    const int n = turns.back() + 1;
+    if (n == 16 || n == 32 || n == 40 || n == 64 || n == 128) {
+      rec.rings_from_order = true;
+      beams = n;
+      ds.meta.sensor.point_order = "laser-by-laser";
+      info.notes.push_back("the clouds have no ring field: rings from the points' order, laser by laser (" + std::to_string(n) +
+                           " turns of azimuth in the first scan)");
+    } else {
+      rings_from_elevation_table(rec, first.points, n, model, beams, ds);
+    }
+  }
+  ds.meta.sensor.beams = beams > 0 ? beams : 1;
+  ds.point_times_in_clouds = !first.times.empty();
+  if (ds.point_times_in_clouds) {
+    info.point_times = format_text("field %s, %s, spanning %.3f s of the first scan", first.time_field.c_str(), first.time_unit.c_str(),
+                                   first.time_span_s);
+  } else if (!first.time_set_aside.empty()) {
+    info.point_times = first.time_set_aside;
+    info.notes.push_back("no per-point times: a sweep is timed by its points' azimuths");
+  } else {
+    info.notes.push_back("the clouds have no per-point time field: a sweep is timed by its points' azimuths");
+  }
+}
+
 }  // namespace
 
 Dataset open_recording(const std::string& path, const DatasetOptions& options) {
@@ -126,7 +233,9 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
   info.format = r.format();
 
   std::uint32_t pi = 0, oi = 0, gi = 0, ti = 0;
-  const bag::Topic* points = choose(r, "sensor_msgs/PointCloud2", options.points_topic, "--points-topic", pi);
+  const bag::Topic* points = choose_packet_topic(r, options, pi);
+  const bool packets = points != nullptr;
+  if (!packets) points = choose(r, "sensor_msgs/PointCloud2", options.points_topic, "--points-topic", pi);
   const bag::Topic* truth = options.truth_topic.empty() ? nullptr : choose(r, "nav_msgs/Odometry", options.truth_topic, "--truth-topic", ti);
   const bag::Topic* odom = nullptr;
   if (!options.odom_topic.empty() || !truth) {
@@ -143,17 +252,13 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
   if (!points) {
     std::string seen;
     for (const bag::Topic& t : r.topics()) seen += "\n  " + t.name + " (" + t.type + ", " + std::to_string(t.count) + " messages)";
-    throw Error(path + ": no sensor_msgs/PointCloud2 topic, so no scans; the " + r.format() + " has " +
+    throw Error(path + ": no sensor_msgs/PointCloud2 topic and no LiDAR packet topic, so no scans; the " + r.format() + " has " +
                 (seen.empty() ? std::string("no topics") : "these topics:" + seen));
   }
   rec->topic = points->name;
   rec->encoding = points->encoding;
 
   // One pass over the messages: the scans' stamps, odometry, fixes and static transforms.
-  struct Stamped {
-    std::int64_t stamp;
-    bag::MessageRef ref;
-  };
   std::vector<Stamped> scans;
   std::vector<ros::Odometry, Eigen::aligned_allocator<ros::Odometry>> odo, gt;
   std::vector<ros::NavSatFix> fixes;
@@ -164,7 +269,10 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
     const bag::Topic& t = r.topics()[m.topic];
     topic_times[m.topic].push_back(ns_to_seconds(m.time_ns));
     const std::string name = path + ": " + t.name + " message at " + std::to_string(ns_to_seconds(m.time_ns)) + " s";
-    if (m.topic == pi) {
+    if (m.topic == pi && packets) {
+      if (topic_frames[m.topic].empty() && t.type.find("PacketMsg") == std::string::npos)
+        topic_frames[m.topic] = ros::decode_header(r.read(m), t.encoding, name).frame_id;
+    } else if (m.topic == pi) {
       // Only the header: the points are decoded when the scan is loaded.
       const std::string_view bytes = r.read(m);
       ros::Header h = ros::decode_header(bytes, t.encoding, name);
@@ -188,53 +296,16 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
       }
     }
   }
-  if (scans.empty()) throw Error(path + ": " + points->name + " has no messages, so no scans");
-  std::stable_sort(scans.begin(), scans.end(), [](const Stamped& a, const Stamped& b) { return a.stamp < b.stamp; });
-  for (std::size_t i = 0; i < scans.size(); ++i) {
-    rec->scans.push_back(scans[i].ref);
-    ds.times.push_back(ns_to_seconds(scans[i].stamp));
-    ds.frame_ids.push_back(static_cast<long>(i));
-  }
-
-  // The scans' rate bounds the spread their per-point times may have.
-  if (ds.times.size() > 1) ds.meta.sensor.rate_hz = (ds.times.size() - 1) / std::max(1e-9, ds.times.back() - ds.times.front());
-  if (ds.meta.sensor.rate_hz > 0) rec->sweep = ros::SweepBounds::around(1.0 / ds.meta.sensor.rate_hz);
-
-  // The first scan tells the sensor: its rings and whether its points carry times.
-  const ros::PointCloud first = recording_cloud(*rec, 0);
   info.lidar_frame = ros::frame_name(topic_frames[pi]);
-  int beams = 0;
-  for (std::uint16_t ring : first.rings) beams = std::max(beams, ring + 1);
-  ds.meta.sensor.model = "from " + points->name;
-  ds.meta.sensor.point_order = "any";
-  ds.meta.sensor.vertical_angles_deg.clear();
-  if (first.rings.empty() && !first.points.empty()) {
-    // No ring field: where the points come laser by laser (each ring one turn of azimuth, as a KITTI
-    // folder's), the turns are the rings; trusted only when they count a sensor's beams.
-    const std::vector<std::uint16_t> turns = rings_from_azimuth(first.points);
-    const int n = turns.back() + 1;
-    if (n == 16 || n == 32 || n == 40 || n == 64 || n == 128) {
-      rec->rings_from_order = true;
-      beams = n;
-      ds.meta.sensor.point_order = "laser-by-laser";
-      info.notes.push_back("the clouds have no ring field: rings from the points' order, laser by laser (" + std::to_string(n) +
-                           " turns of azimuth in the first scan)");
-    } else {
-      info.notes.push_back("the clouds have no ring field, and their points do not come laser by laser (" + std::to_string(n) +
-                           " turns of azimuth in the first scan, not 16, 32, 40, 64 or 128): no beams can be chosen");
+  if (packets) {
+    rec->packets = open_packet_scans(r, pi, options);
+    describe_packet_sensor(*rec->packets, ds);
+    for (std::size_t i = 0; i < rec->packets->size(); ++i) {
+      ds.times.push_back(ns_to_seconds(rec->packets->stamp_ns(i)));
+      ds.frame_ids.push_back(static_cast<long>(i));
     }
-  }
-  ds.meta.sensor.beams = beams > 0 ? beams : 1;
-  ds.point_times_in_clouds = !first.times.empty();
-  if (ds.point_times_in_clouds) {
-    char span[32];
-    std::snprintf(span, sizeof span, "%.3f", first.time_span_s);
-    info.point_times = "field " + first.time_field + ", " + first.time_unit + ", spanning " + span + " s of the first scan";
-  } else if (!first.time_set_aside.empty()) {
-    info.point_times = first.time_set_aside;
-    info.notes.push_back("no per-point times: a sweep is timed by its points' azimuths");
   } else {
-    info.notes.push_back("the clouds have no per-point time field: a sweep is timed by its points' azimuths");
+    describe_clouds(*rec, std::move(scans), points->name, options.lidar_model, ds);
   }
 
   // Odometry: the LiDAR's poses in the odometry frame, through the base frame's extrinsics.

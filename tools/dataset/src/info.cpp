@@ -96,6 +96,7 @@ nlohmann::json dataset_info(const Dataset& ds, const InfoConfig& cfg, const std:
                       {"gps_frame", ri.gps_frame}, {"point_times", ds.has_point_times()},
                       {"gps_lever_arm_m", {ds.meta.vehicle.gps_lever_arm.x(), ds.meta.vehicle.gps_lever_arm.y(), ds.meta.vehicle.gps_lever_arm.z()}},
                       {"notes", ri.notes}};
+    if (!ri.lidar.empty()) j["recording"]["lidar_packets"] = ri.lidar;
   }
   return j;
 }
@@ -136,8 +137,9 @@ std::string dataset_info_text(const Dataset& ds, const nlohmann::json& j) {
     append_format(out, "origin         lat %.9f, lon %.9f, alt %.3f m\n", ds.meta.origin->lat_deg, ds.meta.origin->lon_deg, ds.meta.origin->alt_m);
   if (ds.recording) {
     const RecordingInfo& ri = ds.recording_info;
-    append_format(out, "recording      %s, %zu topics (scans from the clouds' header stamps, the recording's clock)\n", ri.format.c_str(),
-                  ri.topics.size());
+    append_format(out, "recording      %s, %zu topics (scans from %s)\n", ri.format.c_str(), ri.topics.size(),
+                  ri.lidar.empty() ? "the clouds' header stamps, the recording's clock" : "the LiDAR's packets, at their first firing");
+    if (!ri.lidar.empty()) append_format(out, "lidar packets  %s\n", ri.lidar.c_str());
     for (const auto& t : ri.topics) {
       append_format(out, "  %-28s %-26s %-4s %6zu msgs", t.name.c_str(), t.type.c_str(), t.encoding.c_str(), t.count);
       if (t.count > 1) append_format(out, " %7.2f Hz, max gap %.3f s", t.rate_hz, t.max_gap_s);

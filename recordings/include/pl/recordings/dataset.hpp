@@ -65,6 +65,10 @@ struct DatasetOptions {
   // A nav_msgs/Odometry topic holding the ground truth (a reference system's poses of its child frame
   // in a world frame), for evaluation and the paper's protocol; left out of the odometry's choice.
   std::string truth_topic;
+  // Recordings of LiDAR packets (pl/lidar/decoder.hpp): the maker's calibration file, where the
+  // recording does not carry it, and the model, where the packets do not name it.
+  std::string lidar_calibration;
+  std::string lidar_model;
 };
 
 class RecordingScans;  // a recording's scans, read on demand (recordings/src/dataset_recording.cpp)
@@ -83,6 +87,7 @@ struct RecordingInfo {
   std::vector<TopicUse> topics;
   std::string lidar_frame, base_frame, gps_frame;
   std::string point_times;         // the clouds' time field: its unit and sweep, or why it was set aside
+  std::string lidar;               // packet recordings: the sensor, its rate, sweeps, packets and points
   std::vector<std::string> notes;  // choices made and what was missing
 };
 
@@ -124,7 +129,7 @@ struct Dataset {
 };
 
 // Reads the layout found at `path`: a KITTI folder, a ROS 1 bag, a ROS 2 bag (folder or .db3) or an
-// MCAP file. Throws pl::Error naming the file, the line or offset, and what was expected.
+// MCAP file (their scans point clouds or a LiDAR's packets). Throws pl::Error naming the file, the line or offset, and what was expected.
 Dataset open_dataset(const std::string& path, const DatasetOptions& options = {});
 // A recording's dataset (open_dataset calls it for bags and MCAP files).
 Dataset open_recording(const std::string& path, const DatasetOptions& options = {});
