@@ -1,11 +1,11 @@
 // RoboSense packets -> sweeps: the RS-LiDAR-16, Helios-16P and Helios-32.
 //   The model: an RS-LiDAR-16's MSOP header differs from a Helios's; a Helios-16P and a Helios-32 send
 //   the same header, so there the model comes from DecoderOptions::model or the angle file's length.
-//   The angles: the angle file when one is given (as the maker's driver, it wins), else the DIFOP
-//   packet's table. MSOP packets are held until the first DIFOP packet (which also says the return
-//   mode and rotation rate), so that every sweep decodes alike from wherever a decoder starts; with no
-//   DIFOP after kHoldPackets (2.6 s or more), held packets decode with the file's angles or the decoder
-//   throws for want of angles, as finish() does.
+//   The angles: the angle file when one is given (as in the maker's driver, it wins over the DIFOP's),
+//   else the DIFOP packet's table. Without a file, MSOP packets are held until a DIFOP packet brings
+//   the angles, then decoded; none in kHoldPackets (2.6 s or more), or none by finish(), is a
+//   pl::Error naming the fix. The return mode and rotation rate come from the DIFOP packets too: until
+//   the first, single return (strongest) at 600 rpm, as the maker's driver assumes.
 //   Sweeps end where a block's azimuth passes cut_azimuth_deg (the maker's driver's rule);
 //   Sweep::stamp_ns is the sensor's time of the sweep's first block (the MSOP header's clock; the
 //   receive time only where an RS-LiDAR-16's calendar time is no date).
@@ -53,22 +53,23 @@ class RoboSenseDecoder final : public PacketDecoder {
   [[noreturn]] void no_angles() const;
 
   DecoderOptions opt_;
-  std::string angle_file_;             // its name in errors
+  std::string angle_file_;  // its name in errors
   std::optional<Angles> file_angles_;
   const Model* model_ = nullptr;
-  std::string early_difop_;            // one that came before the model was known
-  std::optional<Difop> difop_;         // the latest
-  std::optional<Angles> angles_;       // in use
-  bool holding_ = true;                // until the first DIFOP with what the decoder needs
+  std::string early_difop_;       // one that came before the model was known
+  std::optional<Difop> difop_;    // the latest
+  std::optional<Angles> angles_;  // in use
+  bool holding_ = true;           // MSOP packets, until the model and its angles are known
   std::vector<std::pair<std::string, std::int64_t>> held_;
   Geometry geometry_;
   DecodedPacket packet_;
   Sweep sweep_;
   bool sweep_open_ = false;
-  int cut_ = 0;                        // 0.01°
+  int cut_ = 0;  // 0.01°
   int prev_azimuth_ = 0;
   std::int64_t last_stamp_ = 0;
   double measured_hz_ = 0;
+  std::size_t last_points_ = 0;  // of the last sweep: the next one's reserve
 };
 
 RoboSenseDecoder::RoboSenseDecoder(const DecoderOptions& o) : opt_(o) {
@@ -82,9 +83,11 @@ RoboSenseDecoder::RoboSenseDecoder(const DecoderOptions& o) : opt_(o) {
   angle_file_ = o.calibration_path.empty() ? "the RoboSense angle text" : o.calibration_path;
   file_angles_ = parse_angle_file(o.calibration_text.empty() ? read_text(o.calibration_path) : o.calibration_text, angle_file_);
   const std::size_t n = file_angles_->elevation_deg.size();
-  if (n != 16 && n != 32) fail_at(angle_file_, 0, "one line a laser: 16 (RS-LiDAR-16, Helios-16P) or 32 (Helios-32)", std::to_string(n) + " lines");
+  if (n != 16 && n != 32)
+    fail_at(angle_file_, 0, "one line a laser: 16 (RS-LiDAR-16, Helios-16P) or 32 (Helios-32)", std::to_string(n) + " lines");
   if (model_ && n != static_cast<std::size_t>(model_->lasers))
-    fail_at(angle_file_, 0, "one line a laser of the " + std::string(model_->name) + ": " + std::to_string(model_->lasers) + " lines",
+    fail_at(angle_file_, 0,
+            "one line a laser of the " + std::string(model_->name) + ": " + std::to_string(model_->lasers) + " lines",
             std::to_string(n) + " lines");
   if (model_) angles_ = file_angles_;
 }
@@ -100,8 +103,9 @@ void RoboSenseDecoder::learn_model(Family f) {
   std::size_t lasers = 16;
   if (f == Family::Helios) {
     if (!file_angles_)
-      throw Error("RoboSense Helios packets do not tell a Helios-16P from a Helios-32: give the model (--model Helios-16P or Helios-32) "
-                  "or the sensor's angle file (--lidar-calibration angle.csv, 16 or 32 lines)");
+      throw Error(
+          "RoboSense Helios packets do not tell a Helios-16P from a Helios-32: give the model (--model Helios-16P or Helios-32) "
+          "or the sensor's angle file (--lidar-calibration angle.csv, 16 or 32 lines)");
     lasers = file_angles_->elevation_deg.size();
   } else if (file_angles_ && file_angles_->elevation_deg.size() != 16) {
     fail_at(angle_file_, 0, "one line a laser of the RS-LiDAR-16 the packets come from: 16 lines",
@@ -122,7 +126,9 @@ void RoboSenseDecoder::take_difop(std::string_view p) {
   if (!angles_ && d.angles) angles_ = std::move(d.angles);
   const bool changed = !difop_ || difop_->rpm != d.rpm || difop_->return_mode != d.return_mode;
   difop_ = std::move(d);
-  if (changed && !holding_) geometry_ = make_geometry(*model_, *angles_, return_mode(model_->family, difop_->return_mode), difop_->rpm, opt_.min_range_m, opt_.max_range_m);
+  if (changed && !holding_)
+    geometry_ = make_geometry(*model_, *angles_, return_mode(model_->family, difop_->return_mode), difop_->rpm, opt_.min_range_m,
+                              opt_.max_range_m);
 }
 
 // The angles are known: decode what was held.
@@ -145,18 +151,21 @@ void RoboSenseDecoder::add(std::string_view packet, std::int64_t stamp_ns, std::
     return;
   }
   Family f;
-  if (std::memcmp(b, kRs16Magic, sizeof kRs16Magic) == 0) f = Family::Rs16;
-  else if (std::memcmp(b, kHeliosMagic, sizeof kHeliosMagic) == 0) f = Family::Helios;
-  else return skip("not a RoboSense MSOP or DIFOP packet (its first bytes are neither header)");
+  if (std::memcmp(b, kRs16Magic, sizeof kRs16Magic) == 0)
+    f = Family::Rs16;
+  else if (std::memcmp(b, kHeliosMagic, sizeof kHeliosMagic) == 0)
+    f = Family::Helios;
+  else
+    return skip("not a RoboSense MSOP or DIFOP packet (its first bytes are neither header)");
   learn_model(f);
-  if (f != model_->family) return skip(f == Family::Rs16 ? "an RS-LiDAR-16 MSOP packet among Helios packets" : "a Helios MSOP packet among RS-LiDAR-16 packets");
+  if (f != model_->family)
+    return skip(f == Family::Rs16 ? "an RS-LiDAR-16 MSOP packet among Helios packets"
+                                  : "a Helios MSOP packet among RS-LiDAR-16 packets");
   if (const char* why = check_msop(packet, *model_)) return skip(why);
-  if (holding_ && difop_ && angles_) start(out);  // the DIFOP came before the first MSOP packet
+  if (holding_ && angles_) start(out);
   if (!holding_) return decode(packet, stamp_ns, out);
   held_.emplace_back(std::string(packet), stamp_ns);
-  if (held_.size() < kHoldPackets) return;
-  if (!angles_) no_angles();
-  start(out);
+  if (held_.size() >= kHoldPackets) no_angles();
 }
 
 void RoboSenseDecoder::decode(std::string_view p, std::int64_t stamp_ns, std::vector<Sweep>& out) {
@@ -168,6 +177,7 @@ void RoboSenseDecoder::decode(std::string_view p, std::int64_t stamp_ns, std::ve
     if (sweep_open_ && prev < cut_ && cut_ <= a) close_sweep(out);
     if (!sweep_open_) {
       sweep_ = Sweep{};
+      sweep_.points.reserve(last_points_);
       sweep_.stamp_ns = packet_.time_ns[k];
       sweep_open_ = true;
     }
@@ -186,20 +196,20 @@ void RoboSenseDecoder::close_sweep(std::vector<Sweep>& out) {
   last_stamp_ = sweep_.stamp_ns;
   ++counts_.sweeps;
   counts_.points += sweep_.points.size();
+  last_points_ = sweep_.points.size();
   out.push_back(std::move(sweep_));
 }
 
 void RoboSenseDecoder::finish(std::vector<Sweep>& out) {
-  if (holding_ && !held_.empty()) {
-    if (!angles_) no_angles();
-    start(out);
-  }
+  if (!held_.empty()) no_angles();
   if (sweep_open_) close_sweep(out);
 }
 
 void RoboSenseDecoder::no_angles() const {
-  throw Error("RoboSense " + std::string(model_->name) + " packets need the sensor's laser angles, and none of its DIFOP packets carried them (" +
-              std::to_string(held_.size()) + " MSOP packets in): record the DIFOP packets too (port 7788) or pass --lidar-calibration " +
+  const std::string why = difop_ ? "its DIFOP packets carry no angle table" : "no DIFOP packet came with them";
+  throw Error("RoboSense " + std::string(model_->name) + " packets need the sensor's laser angles, and " + why + " (" +
+              std::to_string(held_.size()) +
+              " MSOP packets): record the DIFOP packets too (port 7788) or pass --lidar-calibration " +
               "angle.csv (the maker's angle file: one line a laser, \"elevation,azimuth offset\" in degrees)");
 }
 

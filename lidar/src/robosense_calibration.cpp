@@ -41,7 +41,8 @@ Angles parse_angle_file(std::string_view text, const std::string& name) {
     if (comma != std::string_view::npos && row.find(',', comma + 1) != std::string_view::npos)
       fail_at(name, line, "\"elevation,azimuth offset\" (two fields)", std::string(row));
     a.elevation_deg.push_back(centidegrees(row.substr(0, comma), name, line, "the elevation") / 100.0);
-    a.azimuth_offset.push_back(comma == std::string_view::npos ? 0 : centidegrees(row.substr(comma + 1), name, line, "the azimuth offset"));
+    a.azimuth_offset.push_back(
+        comma == std::string_view::npos ? 0 : centidegrees(row.substr(comma + 1), name, line, "the azimuth offset"));
   }
   if (a.elevation_deg.empty()) fail_at(name, 0, "one line a laser: \"elevation,azimuth offset\" in degrees", "no angles");
   return a;

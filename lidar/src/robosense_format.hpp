@@ -23,10 +23,10 @@ constexpr std::size_t kBlocks = 12;
 constexpr std::size_t kSlots = 32;
 constexpr std::size_t kFirstBlock = 42;
 constexpr std::size_t kBlockBytes = 100;
-constexpr std::size_t kTimeAt = 20;        // MSOP: the time of the packet's first firing
-constexpr std::size_t kRangeUnitAt = 17;   // Helios MSOP: 0 = 5 mm, 1 = 2.5 mm
-constexpr std::size_t kRpmAt = 8;          // DIFOP
-constexpr std::size_t kReturnModeAt = 300; // DIFOP
+constexpr std::size_t kTimeAt = 20;         // MSOP: the time of the packet's first firing
+constexpr std::size_t kRangeUnitAt = 17;    // Helios MSOP: 0 = 5 mm, 1 = 2.5 mm
+constexpr std::size_t kRpmAt = 8;           // DIFOP
+constexpr std::size_t kReturnModeAt = 300;  // DIFOP
 constexpr std::size_t kHeliosElevationsAt = 468, kHeliosOffsetsAt = 564, kRs16PitchAt = 1165;
 
 constexpr unsigned char kRs16Magic[8] = {0x55, 0xAA, 0x05, 0x0A, 0x5A, 0xA5, 0x50, 0xA0};
@@ -38,11 +38,11 @@ enum class Family { Rs16, Helios };  // which MSOP header and DIFOP layout
 struct Model {
   std::string_view name;
   Family family;
-  int lasers;                // 16 or 32
-  float firing_us;           // one firing of every laser
-  float lens_offset_m;       // the optics' distance from the rotation axis
-  bool two_firings;          // single return: a block's 32 slots are two firings of 16 lasers
-  float single_block_us;     // single return: from one block to the next
+  int lasers;                         // 16 or 32
+  float firing_us;                    // one firing of every laser
+  float lens_offset_m;                // the optics' distance from the rotation axis
+  bool two_firings;                   // single return: a block's 32 slots are two firings of 16 lasers
+  float single_block_us;              // single return: from one block to the next
   std::array<float, kSlots> slot_us;  // the maker's firing table: each slot's time after the block's first
 };
 
@@ -57,9 +57,9 @@ struct SlotPlan {
   std::array<bool, kSlots> second_return{};  // dual return in halves: slots 16-31
   std::array<float, kSlots> fraction{};      // of the azimuth step to the next block, after the block's azimuth
   std::array<float, kSlots> time_us{};       // after the block's time
-  float block_us = 0;      // from one block (or pair, block_pairs) to the next
-  int step_firings = 1;    // firings from one block to the next: the nominal step is this many firings' turn
-  bool block_pairs = false;  // dual return in pairs of blocks (Helios-32): the odd block holds the second returns
+  float block_us = 0;                        // from one block (or pair, block_pairs) to the next
+  int step_firings = 1;                      // from one block to the next: the nominal step's multiple
+  bool block_pairs = false;                  // dual return in block pairs (Helios-32): odd blocks, second returns
 };
 SlotPlan plan_slots(const Model& m, bool dual);
 

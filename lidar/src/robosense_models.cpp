@@ -8,6 +8,7 @@
 namespace pl::lidar::robosense {
 namespace {
 
+// clang-format off
 // RS-LiDAR-16: 16 lasers 2.8 µs apart, a firing every 55.5 µs, two firings a block (user manual, app. A).
 constexpr Model kRs16{
     "RS-LiDAR-16", Family::Rs16, 16, 55.5f, 0.03825f, true, 111.0f,
@@ -30,6 +31,7 @@ constexpr Model kHelios32{
     {0.00f,  1.57f,  3.15f,  4.72f,  6.30f,  7.87f,  9.45f,  11.36f, 13.26f, 15.17f, 17.08f,
      18.99f, 20.56f, 22.14f, 23.71f, 25.29f, 26.53f, 29.01f, 27.77f, 30.25f, 31.49f, 33.98f,
      32.73f, 35.22f, 36.46f, 37.70f, 38.94f, 40.18f, 41.42f, 42.67f, 43.91f, 45.15f}};
+// clang-format on
 
 // "RS-Helios-16P", "helios_16p", "RSHELIOS_16P" -> "helios16p".
 std::string folded(std::string_view name) {

@@ -84,10 +84,12 @@ Geometry make_geometry(const Model& m, const Angles& a, ReturnMode mode, int rpm
 
 const char* check_msop(std::string_view p, const Model& m) {
   const auto* b = reinterpret_cast<const unsigned char*>(p.data());
-  if (m.family == Family::Rs16 ? std::memcmp(b, kRs16Magic, sizeof kRs16Magic) != 0 : std::memcmp(b, kHeliosMagic, sizeof kHeliosMagic) != 0)
+  if (m.family == Family::Rs16 ? std::memcmp(b, kRs16Magic, sizeof kRs16Magic) != 0
+                               : std::memcmp(b, kHeliosMagic, sizeof kHeliosMagic) != 0)
     return m.family == Family::Rs16 ? "not an RS-LiDAR-16 MSOP packet (its header is not 55 AA 05 0A 5A A5 50 A0)"
                                     : "not a Helios MSOP packet (its header is not 55 AA 05 5A)";
-  if (m.family == Family::Helios && b[kRangeUnitAt] > 1) return "a Helios MSOP packet with an unknown distance unit (byte 17 is neither 0 nor 1)";
+  if (m.family == Family::Helios && b[kRangeUnitAt] > 1)
+    return "a Helios MSOP packet with an unknown distance unit (byte 17 is neither 0 nor 1)";
   for (std::size_t k = 0; k < kBlocks; ++k) {
     const unsigned char* blk = b + kFirstBlock + k * kBlockBytes;
     if (blk[0] != 0xFF || blk[1] != 0xEE) return "an MSOP packet with a block that does not open with FF EE";
@@ -105,7 +107,8 @@ std::int64_t packet_time_ns(std::string_view p, Family family, std::int64_t rece
   }
   const int year = 2000 + b[0], month = b[1], day = b[2], hour = b[3], minute = b[4], second = b[5];
   const int ms = static_cast<int>(be16(b + 6)), us = static_cast<int>(be16(b + 8));
-  if (month < 1 || month > 12 || day < 1 || day > 31 || hour > 23 || minute > 59 || second > 60 || ms > 999 || us > 999) return receive_ns;
+  if (month < 1 || month > 12 || day < 1 || day > 31 || hour > 23 || minute > 59 || second > 60 || ms > 999 || us > 999)
+    return receive_ns;
   const std::int64_t s = days_since_1970(year, month, day) * 86400 + hour * 3600 + minute * 60 + second;
   return s * 1000000000 + ms * 1000000LL + us * 1000LL;
 }
@@ -130,8 +133,10 @@ void decode_msop(std::string_view p, std::int64_t receive_ns, const Geometry& g,
     if (k + group < kBlocks) {
       int d = out.azimuth[k + group] - out.azimuth[k];
       if (d < 0) d += kTurn;
-      if (d > 100) next_us = d / (kTurn * rotations_per_s(g.rpm)) * 1e6;
-      else step = d;
+      if (d > 100)
+        next_us = d / (kTurn * rotations_per_s(g.rpm)) * 1e6;
+      else
+        step = d;
     }
     for (std::size_t j = k; j < k + group; ++j) {
       out.time_ns[j] = t0 + std::llround(t_us * 1000);

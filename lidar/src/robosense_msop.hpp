@@ -18,9 +18,9 @@ namespace pl::lidar::robosense {
 struct Geometry {
   const Model* model = nullptr;
   SlotPlan plan;
-  std::vector<float> cos_el, sin_el, elevation_deg;  // by laser
-  std::vector<int> azimuth_offset;                   // by laser, 0.01°
-  std::vector<std::uint16_t> channel;                // by laser
+  std::vector<float> cos_el, sin_el, elevation_deg;                        // by laser
+  std::vector<int> azimuth_offset;                                         // by laser, 0.01°
+  std::vector<std::uint16_t> channel;                                      // by laser
   ReturnType first = ReturnType::Strongest, second = ReturnType::Unknown;  // single return: first only
   int nominal_step = 20;  // 0.01°: the turn between blocks where the next block's azimuth is not at hand
   int rpm = 600;
@@ -37,10 +37,10 @@ ReturnMode return_mode(Family family, std::uint8_t code);
 Geometry make_geometry(const Model& m, const Angles& a, ReturnMode mode, int rpm, double min_m, double max_m);
 
 struct DecodedPacket {
-  std::array<int, kBlocks> azimuth{};               // 0.01°, as the block reports it
-  std::array<std::int64_t, kBlocks> time_ns{};      // of the block's first firing
+  std::array<int, kBlocks> azimuth{};                  // 0.01°, as the block reports it
+  std::array<std::int64_t, kBlocks> time_ns{};         // of the block's first firing
   std::array<std::size_t, kBlocks + 1> first_point{};  // points of block k: [first_point[k], first_point[k+1])
-  std::vector<Point> points;                        // time_s left 0: point_ns holds their times
+  std::vector<Point> points;                           // time_s left 0: point_ns holds their times
   std::vector<std::int64_t> point_ns;
 };
 

@@ -3,5 +3,7 @@
 pl_fuzzed_sources(pl_lidar lidar/src/decoder.cpp)
 # velodyne: pl_add_fuzzer(velodyne_packets SOURCES fuzz_velodyne_packets.cpp LIBS pl_lidar)
 # hesai: pl_add_fuzzer(hesai_packets SOURCES fuzz_hesai_packets.cpp LIBS pl_lidar)
-# robosense: pl_add_fuzzer(robosense_packets SOURCES fuzz_robosense_packets.cpp LIBS pl_lidar)
+pl_fuzzed_sources(pl_lidar lidar/src/robosense.cpp lidar/src/robosense_calibration.cpp lidar/src/robosense_models.cpp
+  lidar/src/robosense_msop.cpp)
+pl_add_fuzzer(robosense_packets SOURCES fuzz_robosense_packets.cpp LIBS pl_lidar)
 # ouster: pl_add_fuzzer(ouster_packets SOURCES fuzz_ouster_packets.cpp LIBS pl_lidar)
