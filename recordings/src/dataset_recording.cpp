@@ -17,6 +17,7 @@
 #include "pl/common/scan.hpp"
 #include "pl/common/text.hpp"
 #include "pl/recordings/bag.hpp"
+#include "pl/lidar/beam_table.hpp"
 #include "pl/recordings/packet_msgs.hpp"
 #include "pl/recordings/ros_msgs.hpp"
 #include "packet_scans.hpp"
@@ -31,6 +32,7 @@ class RecordingScans {
   std::string path, topic;
   ros::SweepBounds sweep;       // from the scans' rate
   bool rings_from_order = false;  // no ring field, but the points come laser by laser
+  std::vector<double> beam_table;  // no ring field, points in any order: rings from their elevations
   std::unique_ptr<PacketScans> packets;  // set when the scans are a LiDAR's packets
   std::mutex mutex;
 };
@@ -57,7 +59,12 @@ Frame recording_frame(RecordingScans& rec, std::size_t i, bool with_rings) {
   ros::PointCloud cloud = recording_cloud(rec, i);
   Frame f;
   f.scan = std::move(cloud.points);
-  if (with_rings) f.rings = cloud.rings.empty() && rec.rings_from_order ? rings_from_azimuth(f.scan) : std::move(cloud.rings);
+  if (with_rings && cloud.rings.empty() && rec.rings_from_order)
+    f.rings = rings_from_azimuth(f.scan);
+  else if (with_rings && cloud.rings.empty() && !rec.beam_table.empty())
+    f.rings = rings_from_elevation(f.scan, rec.beam_table);
+  else if (with_rings)
+    f.rings = std::move(cloud.rings);
   f.times = std::move(cloud.times);
   return f;
 }
@@ -122,6 +129,40 @@ class StaticTree {
   }
 };
 
+// A ring-less cloud in any point order: its rings from its points' elevations, against the beam table
+// of the model named (--lidar-model) or of the one model whose table the first scan fits.
+void rings_from_elevation_table(RecordingScans& rec, const Scan& first, int turns, const std::string& model, int& beams, Dataset& ds) {
+  RecordingInfo& info = ds.recording_info;
+  const std::string why = "the clouds have no ring field, and their points do not come laser by laser (" + std::to_string(turns) +
+                          " turns of azimuth in the first scan, not 16, 32, 40, 64 or 128)";
+  std::vector<const lidar::BeamTable*> candidates;
+  if (!model.empty()) {
+    const lidar::BeamTable* t = lidar::nominal_beam_table(model);
+    if (!t) {
+      std::string known;
+      for (const auto& table : lidar::nominal_beam_tables())
+        for (const auto& m : table.models) known += (known.empty() ? "" : ", ") + m;
+      info.notes.push_back(why + "; --lidar-model " + model + " has no fixed beam table (those that have: " + known + "): no beams can be chosen");
+      return;
+    }
+    candidates.push_back(t);
+  }
+  const lidar::BeamTable* t = lidar::find_beam_table(first, candidates);
+  if (!t) {
+    info.notes.push_back(why + ", and their elevations fit " + (model.empty() ? "no known sensor's beams" : "the beams of a " + model) +
+                         ": no beams can be chosen (name the sensor with --lidar-model, or record the driver's ring field)");
+    return;
+  }
+  rec.beam_table = t->elevation_deg;
+  beams = static_cast<int>(t->elevation_deg.size());
+  ds.meta.sensor.vertical_angles_deg = t->elevation_deg;
+  std::string models;
+  for (const auto& m : t->models) models += (models.empty() ? "" : "/") + m;
+  info.notes.push_back(format_text("the clouds have no ring field: rings from the points' elevations against the %s beam table (%.1f %% of "
+                                   "the first scan's points within 0.25 degrees of a beam)",
+                                   models.c_str(), 100.0 * lidar::fit_beams(first, t->elevation_deg).share));
+}
+
 struct Stamped {
   std::int64_t stamp;
   bag::MessageRef ref;
@@ -129,7 +170,7 @@ struct Stamped {
 
 // The scans of a PointCloud2 topic in stamp order, and what the first cloud tells of the sensor: its
 // rings and whether its points carry times.
-void describe_clouds(RecordingScans& rec, std::vector<Stamped> scans, const std::string& topic, Dataset& ds) {
+void describe_clouds(RecordingScans& rec, std::vector<Stamped> scans, const std::string& topic, const std::string& model, Dataset& ds) {
   RecordingInfo& info = ds.recording_info;
   if (scans.empty()) throw Error(rec.path + ": " + topic + " has no messages, so no scans");
   std::stable_sort(scans.begin(), scans.end(), [](const Stamped& a, const Stamped& b) { return a.stamp < b.stamp; });
@@ -162,8 +203,7 @@ void describe_clouds(RecordingScans& rec, std::vector<Stamped> scans, const std:
       info.notes.push_back("the clouds have no ring field: rings from the points' order, laser by laser (" + std::to_string(n) +
                            " turns of azimuth in the first scan)");
     } else {
-      info.notes.push_back("the clouds have no ring field, and their points do not come laser by laser (" + std::to_string(n) +
-                           " turns of azimuth in the first scan, not 16, 32, 40, 64 or 128): no beams can be chosen");
+      rings_from_elevation_table(rec, first.points, n, model, beams, ds);
     }
   }
   ds.meta.sensor.beams = beams > 0 ? beams : 1;
@@ -265,7 +305,7 @@ Dataset open_recording(const std::string& path, const DatasetOptions& options) {
       ds.frame_ids.push_back(static_cast<long>(i));
     }
   } else {
-    describe_clouds(*rec, std::move(scans), points->name, ds);
+    describe_clouds(*rec, std::move(scans), points->name, options.lidar_model, ds);
   }
 
   // Odometry: the LiDAR's poses in the odometry frame, through the base frame's extrinsics.

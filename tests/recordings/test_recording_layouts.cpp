@@ -1,6 +1,7 @@
 // Recordings whose clouds other tools laid out: a time field that carries no time (the Velodyne
 // layout with every time 0) is set aside and named, and a cloud with no ring field (PCL's PointXYZI)
-// gets its rings from its points' order where they come laser by laser, and none where they do not.
+// gets its rings from its points' order where they come laser by laser, else from their elevations
+// against a sensor's beam table where they fit one, and none where they fit none.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -33,9 +34,14 @@ struct Field {
   std::uint8_t type;
 };
 
+// The beams of the scans: a VLP-16's (-15 to 15 degrees by 2), or beams no sensor has.
+struct Beams {
+  double lowest_deg = -15, step_deg = 2;
+};
+
 // One scan of 16 rings x 90 columns, each ring one counter-clockwise turn from straight ahead, as a
 // CDR PointCloud2 in `layout`; `shuffled` writes the same points in a random order.
-std::string cloud(Layout layout, int scan, bool shuffled) {
+std::string cloud(Layout layout, int scan, bool shuffled, Beams beams) {
   const bool velodyne = layout == Layout::VelodyneZeroTime;
   const std::vector<Field> fields = velodyne ? std::vector<Field>{{"x", 0, 7}, {"y", 4, 7}, {"z", 8, 7}, {"intensity", 12, 7},
                                                                  {"ring", 16, 4}, {"time", 18, 7}}
@@ -47,7 +53,7 @@ std::string cloud(Layout layout, int scan, bool shuffled) {
   std::string data(static_cast<std::size_t>(step) * n, '\0');
   for (std::uint32_t i = 0; i < n; ++i) {
     const int k = order[i], ring = ring_of(k), col = k % kColumns;
-    const double az = 2 * M_PI * (col + 0.5) / kColumns, el = (-15.0 + 2.0 * ring) * M_PI / 180, range = 8.0 + 0.01 * col;
+    const double az = 2 * M_PI * (col + 0.5) / kColumns, el = (beams.lowest_deg + beams.step_deg * ring) * M_PI / 180, range = 8.0 + 0.01 * col;
     const float xyz[3] = {static_cast<float>(range * std::cos(el) * std::cos(az)), static_cast<float>(range * std::cos(el) * std::sin(az)),
                           static_cast<float>(range * std::sin(el))};
     const float intensity = static_cast<float>(ring);
@@ -68,14 +74,14 @@ std::string cloud(Layout layout, int scan, bool shuffled) {
   return w.bytes();
 }
 
-std::string recording(const pl::test::TempDir& dir, const std::string& name, Layout layout, bool shuffled = false) {
+std::string recording(const pl::test::TempDir& dir, const std::string& name, Layout layout, bool shuffled = false, Beams beams = {}) {
   const std::string path = dir.path() + "/" + name + ".mcap";
   pl::McapWriter mcap(path);
   const auto schema = mcap.add_schema("sensor_msgs/msg/PointCloud2", "ros2msg", "");
   const auto channel = mcap.add_channel(schema, "/points", "cdr");
   for (int s = 0; s < kScans; ++s) {
     const std::uint64_t t = 1700000000ULL * 1000000000ULL + static_cast<std::uint64_t>(s) * 100000000ULL;
-    mcap.write(channel, static_cast<std::uint32_t>(s), t, t, cloud(layout, s, shuffled));
+    mcap.write(channel, static_cast<std::uint32_t>(s), t, t, cloud(layout, s, shuffled, beams));
   }
   mcap.close();
   return path;
@@ -113,12 +119,32 @@ TEST(RecordingLayouts, NoRingFieldPointsLaserByLaserGiveTheirRings) {
   }
 }
 
-TEST(RecordingLayouts, NoRingFieldPointsInAnyOrderGiveNoBeamsAndSaySo) {
+TEST(RecordingLayouts, NoRingFieldPointsInAnyOrderTakeTheirRingsFromTheBeamTableTheyFit) {
   pl::test::TempDir dir;
   const pl::Dataset ds = pl::open_dataset(recording(dir, "shuffled", Layout::PclXyzi, true));
+  EXPECT_EQ(ds.meta.sensor.beams, kRings);
+  EXPECT_TRUE(has_note(ds, "rings from the points' elevations against the VLP-16/RS-LiDAR-16/PandarXT16 beam table (100.0 %"))
+      << (ds.recording_info.notes.empty() ? "" : ds.recording_info.notes[0]);
+  const pl::Frame f = ds.load_frame(2, true);
+  ASSERT_EQ(f.rings.size(), f.scan.size());
+  for (std::size_t i = 0; i < f.scan.size(); ++i)  // the intensity was written as the ring
+    ASSERT_EQ(f.rings[i], static_cast<std::uint16_t>(f.scan[i].intensity)) << "point " << i;
+}
+
+TEST(RecordingLayouts, NoRingFieldAndBeamsOfNoKnownSensorGiveNoBeamsAndSaySo) {
+  pl::test::TempDir dir;
+  const std::string path = recording(dir, "odd", Layout::PclXyzi, true, Beams{-14.3, 1.7});
+  const pl::Dataset ds = pl::open_dataset(path);
   EXPECT_EQ(ds.meta.sensor.beams, 1);
-  EXPECT_TRUE(has_note(ds, "do not come laser by laser")) << (ds.recording_info.notes.empty() ? "" : ds.recording_info.notes[0]);
+  EXPECT_TRUE(has_note(ds, "fit no known sensor's beams: no beams can be chosen (name the sensor with --lidar-model"))
+      << (ds.recording_info.notes.empty() ? "" : ds.recording_info.notes[0]);
   EXPECT_TRUE(ds.load_frame(0, true).rings.empty());
+  // Named, a model whose beams the points do not fit is not taken either; a model without a table is said so.
+  pl::DatasetOptions named;
+  named.lidar_model = "VLP-16";
+  EXPECT_TRUE(has_note(pl::open_dataset(path, named), "fit the beams of a VLP-16: no beams can be chosen"));
+  named.lidar_model = "OS-1-64";
+  EXPECT_TRUE(has_note(pl::open_dataset(path, named), "--lidar-model OS-1-64 has no fixed beam table (those that have: VLP-16"));
 }
 
 }  // namespace
