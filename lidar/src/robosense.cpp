@@ -104,7 +104,7 @@ void RoboSenseDecoder::learn_model(Family f) {
   if (f == Family::Helios) {
     if (!file_angles_)
       throw Error(
-          "RoboSense Helios packets do not tell a Helios-16P from a Helios-32: give the model (--model Helios-16P or Helios-32) "
+          "RoboSense Helios packets do not tell a Helios-16P from a Helios-32: give the model (--lidar-model Helios-16P or Helios-32) "
           "or the sensor's angle file (--lidar-calibration angle.csv, 16 or 32 lines)");
     lasers = file_angles_->elevation_deg.size();
   } else if (file_angles_ && file_angles_->elevation_deg.size() != 16) {

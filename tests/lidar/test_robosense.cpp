@@ -213,7 +213,7 @@ TEST(RoboSense, TheModelIsToldByThePacketsOrTheAngleFile) {
     bare->add(rs_test::msop(Kind::Helios, rs_test::turning(0, 20), kHeliosUs), 1, out);
     FAIL() << "a Helios of unknown laser count was decoded";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("--model Helios-16P"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--lidar-model Helios-16P"), std::string::npos) << e.what();
   }
 }
 
