@@ -2,7 +2,9 @@
 # calibration file), fed to one decoder.
 pl_fuzzed_sources(pl_lidar lidar/src/decoder.cpp)
 # velodyne: pl_add_fuzzer(velodyne_packets SOURCES fuzz_velodyne_packets.cpp LIBS pl_lidar)
-# hesai: pl_add_fuzzer(hesai_packets SOURCES fuzz_hesai_packets.cpp LIBS pl_lidar)
+pl_fuzzed_sources(pl_lidar lidar/src/hesai.cpp lidar/src/hesai_calibration.cpp lidar/src/hesai_firing.cpp
+  lidar/src/hesai_packet.cpp lidar/src/hesai_sweeps.cpp)
+pl_add_fuzzer(hesai_packets SOURCES fuzz_hesai_packets.cpp LIBS pl_lidar)
 pl_fuzzed_sources(pl_lidar lidar/src/robosense.cpp lidar/src/robosense_calibration.cpp lidar/src/robosense_models.cpp
   lidar/src/robosense_msop.cpp)
 pl_add_fuzzer(robosense_packets SOURCES fuzz_robosense_packets.cpp LIBS pl_lidar)
