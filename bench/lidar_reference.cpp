@@ -94,11 +94,14 @@ std::vector<RefPoint> read_reference(const std::string& path, RefFields& has) {
     if (ir >= 0) r.return_type = static_cast<int>(v[ir]);
   }
   if (!in && data == "ascii") throw pl::Error(path + ": fewer points than POINTS says");
-  // The reference decoder gives azimuths in radians (older versions in degrees).
+  // The reference decoder gives azimuths in radians (older versions in degrees; its RoboSense decoder
+  // of 2023 in 0.01° integers, some past 360° or below 0°).
   double most = 0;
   for (const auto& r : out) most = std::max(most, std::abs(r.azimuth));
   if (most <= 2 * M_PI + 0.01)
     for (auto& r : out) r.azimuth *= 180.0 / M_PI;
+  else if (most > 720)
+    for (auto& r : out) r.azimuth *= 0.01;
   return out;
 }
 
@@ -140,6 +143,7 @@ Row compare(const pl::lidar::Sweep& sweep, const std::vector<RefPoint>& ref, con
     row.max_error_m = std::max(row.max_error_m, best);
     double da = has.azimuth ? std::abs(near->azimuth_deg - r.azimuth)
                             : std::abs(std::atan2(near->y, near->x) - std::atan2(r.y, r.x)) * 180.0 / M_PI;
+    da = std::fmod(da, 360.0);
     da = std::min(da, 360.0 - da);
     row.max_azimuth_deg = std::max(row.max_azimuth_deg, da);
     row.channel_ok += near->channel == r.channel;
