@@ -189,6 +189,12 @@ int main(int argc, char** argv) {
       for (const auto& p : scan.packets) decoder->add(p.data, p.stamp_ns ? p.stamp_ns : m.time_ns, sweeps);
     }
     decoder->finish(sweeps);
+    // The reference decoder numbers a Velodyne's lasers by elevation (its rings), ours by laser id.
+    if (vendor == "velodyne") {
+      const auto rings = decoder->info().ring_of_channel;
+      for (auto& sweep : sweeps)
+        for (auto& p : sweep.points) p.channel = rings.at(p.channel);
+    }
     RefFields has;
     const std::vector<RefPoint> ref = read_reference(reference, has);
     Row best;

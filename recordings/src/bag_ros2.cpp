@@ -397,9 +397,10 @@ class Ros2Reader : public Reader {
         const std::string raw_type = column_text(st.get(), 2);
         const std::string format = column_text(st.get(), 3);
         // Only CDR is decoded; a topic in another serialization keeps its type behind the format's
-        // name, so that no decoder takes it for its own.
+        // name, so that no decoder takes it for its own. An empty format is CDR: older writers left
+        // the default unnamed (tier4/nebula's VLS-128 capture).
         std::string type = ros1_style_type(raw_type);
-        if (format != "cdr") type = format + ":" + type;
+        if (format != "cdr" && !format.empty()) type = format + ":" + type;
         const auto [it, fresh] = topic_index.emplace(name + '\0' + type, static_cast<std::uint32_t>(topics_.size()));
         if (fresh) topics_.push_back({name, type, Encoding::Cdr, {}, 0});
         if (!ids.emplace(id, it->second).second)
