@@ -20,22 +20,23 @@ export PL_NO_PROGRESS=1
 helios=$root/build/RobosenseHelios16P.csv
 mkdir -p "$root/build"
 cat >"$helios" <<'CSV'
-14.94,-4.05	
-13.03,3.61	
-10.92,-4.00	
-8.90,3.58	
-6.96,-3.97	
-5.46,3.56	
-3.98,-3.96	
-2.67,3.55	
-1.33,-3.95	
-0,3.55	
--1.33,-3.95	
--2.67,3.55	
--3.96,-3.96	
--5.23,3.56	
--6.63,-3.97	
--8.01,3.57CSV
+14.94,-4.05
+13.03,3.61
+10.92,-4.00
+8.90,3.58
+6.96,-3.97
+5.46,3.56
+3.98,-3.96
+2.67,3.55
+1.33,-3.95
+0,3.55
+-1.33,-3.95
+-2.67,3.55
+-3.96,-3.96
+-5.23,3.56
+-6.63,-3.97
+-8.01,3.57
+CSV
 
 # capture folder | vendor | calibration file | options (the reference decoder's test parameters)
 captures=(
@@ -56,14 +57,14 @@ echo "| capture | model | points (ours) | points (reference) | matched within 1 
 echo "|---|---|---|---|---|---|---|---|---|"
 for c in "${captures[@]}"; do
   IFS='|' read -r dir vendor calibration extra <<<"$c"
-  bag=$(find "$nebula/$dir" -mindepth 1 -maxdepth 2 -name '*.db3' -printf '%h\n' | head -1)
+  bag=$(find "$nebula/$dir" -mindepth 1 -maxdepth 2 -name '*.db3' -not -path '*/all_points/*' -printf '%h\n' | head -1)
   for pcd in "$nebula/$dir"/*.pcd; do
     args=(--vendor "$vendor" --recording "$bag" --reference "$pcd")
     [[ -n "$calibration" ]] && args+=(--lidar-calibration "$calibration")
     # shellcheck disable=SC2206
     [[ -n "$extra" ]] && args+=($extra)
     row=$("$bin/bench_lidar_reference" "${args[@]}" 2>"$root/build/lidar_decoders.log") || failed=1
-    echo "| $dir/$(basename "$pcd" .pcd) ${row#|}"
+    echo "| $dir/$(basename "$pcd" .pcd) |${row#|}"
   done
 done
 
@@ -78,7 +79,7 @@ echo
 echo "pl-dataset info on each recording of packets:"
 for c in "${captures[@]}"; do
   IFS='|' read -r dir vendor calibration extra <<<"$c"
-  bag=$(find "$nebula/$dir" -mindepth 1 -maxdepth 2 -name '*.db3' -printf '%h\n' | head -1)
+  bag=$(find "$nebula/$dir" -mindepth 1 -maxdepth 2 -name '*.db3' -not -path '*/all_points/*' -printf '%h\n' | head -1)
   args=()
   [[ -n "$calibration" ]] && args+=(--lidar-calibration "$calibration")
   printf '%-22s ' "$dir"
@@ -89,7 +90,9 @@ printf '%-22s ' "ouster 512x10 bag"
 for pcap in "$data"/sensor-packets/ouster/*.pcap; do
   json=${pcap%.pcap}.json
   [[ -f "$json" ]] || json=$data/sensor-packets/ouster/OS-1-64_sensor_config_reduced.json
+  model=()
+  [[ $pcap == *OS-1-64_1024x10_fw20* ]] && model=(--lidar-model OS-1-64)  # its reduced metadata names no model
   printf '%-22s ' "$(basename "$pcap" .pcap)"
-  "$bin/pl-dataset" info "$pcap" --lidar-calibration "$json" 2>&1 | grep -E '^lidar packets|rror' | sed 's/^lidar packets *//'
+  "$bin/pl-dataset" info "$pcap" --lidar-calibration "$json" "${model[@]}" 2>&1 | grep -E '^lidar packets|rror' | sed 's/^lidar packets *//'
 done
 exit $failed
