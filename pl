@@ -120,12 +120,17 @@ cmd_test() {
   phase "testing build/asan" ctest --test-dir build/asan --output-on-failure --no-tests=error -j $((2 * JOBS)) \
     --output-junit "$ROOT/build/test-results/asan.xml" || rc=1
   phase "finishing the TSan build" wait_for_builds $builds || rc=1
-  # The fuzzers (20 s of wall time each, on every core) and the ThreadSanitizer tests (mostly waiting
-  # on their servers) side by side.
-  bash tests/fuzz/run.sh build/asan/bin 20 >build/fuzz-run.log 2>&1 &
+  # The fuzzers and the ThreadSanitizer tests (mostly waiting on their servers) side by side. The
+  # fuzzers share 160 s of wall time on every core (20 s each for 16 targets), at least 10 s each: a
+  # new target does not lengthen the run until there are 32.
+  local targets=(build/asan/bin/fuzz_*) each
+  each=$(( 160 * JOBS / ${#targets[@]} ))
+  (( each > 20 )) && each=20
+  (( each < 10 )) && each=10
+  bash tests/fuzz/run.sh build/asan/bin $each >build/fuzz-run.log 2>&1 &
   local fuzzing=$!
   phase "testing build/tsan (ThreadSanitizer)" test_tsan || rc=1
-  phase "fuzzing each target 20 s" wait_for_fuzzing $fuzzing || rc=1
+  phase "fuzzing each target $each s" wait_for_fuzzing $fuzzing || rc=1
   PHASES+=("$(printf '%-34s %5d s' "all" $((SECONDS - t_all)))")
   echo
   printf '%s\n' "${PHASES[@]}"

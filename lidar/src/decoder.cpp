@@ -24,6 +24,15 @@ void DecoderOptions::validate() const {
     throw Error("lidar decoder: cut_azimuth_deg " + std::to_string(cut_azimuth_deg) + " must lie in [0, 360)");
 }
 
+std::optional<Vendor> vendor_of_packet(std::string_view p) {
+  auto at = [&](std::size_t i) { return static_cast<unsigned char>(p[i]); };
+  if (p.size() == 1206 && at(0) == 0xFF && at(1) == 0xEE) return Vendor::Velodyne;
+  if (p.size() >= 12 && at(0) == 0xEE && at(1) == 0xFF) return Vendor::Hesai;
+  if (p.size() >= 4 && ((at(0) == 0x55 && at(1) == 0xAA && at(2) == 0x05) || (at(0) == 0xA5 && at(1) == 0xFF && at(2) == 0x00 && at(3) == 0x5A)))
+    return Vendor::RoboSense;
+  return std::nullopt;
+}
+
 std::unique_ptr<PacketDecoder> make_decoder(Vendor vendor, const DecoderOptions& options) {
   options.validate();
   switch (vendor) {

@@ -9,6 +9,7 @@
 #include <map>
 
 #include "dataset_recording.hpp"
+#include "pl/lidar/pcap.hpp"
 #include "pl/common/cloud_io.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/text.hpp"
@@ -479,6 +480,7 @@ void open_raw_layout(Dataset& ds) {
 
 Dataset open_dataset(const std::string& dir_in, const DatasetOptions& options) {
   if (bag::is_recording(dir_in)) return open_recording(dir_in, options);
+  if (lidar::is_pcap(dir_in)) return open_pcap_recording(dir_in, options);
   Dataset ds;
   ds.dir = dir_in;
   while (ds.dir.size() > 1 && ds.dir.back() == '/') ds.dir.pop_back();

@@ -18,7 +18,7 @@ void topic_options(CLI::App& app, DatasetOptions& topics) {
 
 CLI::Option* dataset_option(CLI::App& app, std::string& path, DatasetOptions& topics, const std::string& help) {
   topic_options(app, topics);
-  return app.add_option("--dataset", path, help + ": a KITTI folder, a ROS 1 bag, a ROS 2 bag (folder or .db3) or an MCAP file")
+  return app.add_option("--dataset", path, help + ": a KITTI folder, a ROS 1 bag, a ROS 2 bag (folder or .db3), an MCAP file or a pcap capture of a LiDAR")
       ->required()
       ->type_name("PATH");
 }

@@ -24,18 +24,8 @@
 
 namespace pl {
 
-class RecordingScans {
- public:
-  std::unique_ptr<bag::Reader> reader;
-  std::vector<bag::MessageRef> scans;  // in stamp order
-  bag::Encoding encoding = bag::Encoding::Ros1;
-  std::string path, topic;
-  ros::SweepBounds sweep;       // from the scans' rate
-  bool rings_from_order = false;  // no ring field, but the points come laser by laser
-  std::vector<double> beam_table;  // no ring field, points in any order: rings from their elevations
-  std::unique_ptr<PacketScans> packets;  // set when the scans are a LiDAR's packets
-  std::mutex mutex;
-};
+
+RecordingScans::~RecordingScans() = default;
 
 namespace {
 

@@ -11,22 +11,41 @@ PacketScans::PacketScans(std::unique_ptr<PacketStream> stream, lidar::Vendor ven
     : stream_(std::move(stream)), vendor_(vendor), options_(std::move(options)) {
   auto decoder = lidar::make_decoder(vendor_, options_);
   std::vector<lidar::Sweep> out;
-  std::size_t begins = 0;  // the unit the next sweep begins in
+  std::vector<std::size_t> points;  // of each sweep
+  std::size_t begins = 0;           // the unit the next sweep begins in
   for (std::size_t u = 0; u < stream_->units(); ++u) {
     for (const ros::LidarPacket& p : stream_->packets(u)) {
       decoder->add(p.data, p.stamp_ns, out);
       for (const lidar::Sweep& s : out) {
         stamps_.push_back(s.stamp_ns);
         start_unit_.push_back(begins);
-        begins = u;  // the packet that closed this sweep opens the next
+        points.push_back(s.points.size());
       }
+      // The packet that closed these sweeps opens the next. (Several come at once where a decoder held
+      // packets until it learnt its calibration: they all began at or after `begins`.)
+      if (!out.empty()) begins = u;
       out.clear();
     }
   }
   decoder->finish(out);
-  for (const lidar::Sweep& s : out) stamps_.push_back(s.stamp_ns), start_unit_.push_back(begins);
+  for (const lidar::Sweep& s : out) stamps_.push_back(s.stamp_ns), start_unit_.push_back(begins), points.push_back(s.points.size());
   sensor_ = decoder->info();
   counts_ = decoder->counts();
+  // A recording starts and stops mid-rotation: a first or last sweep with less than half the points of
+  // the median sweep is a part of one, left out.
+  if (!points.empty()) {
+    std::vector<std::size_t> sorted = points;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    median_points_ = sorted[sorted.size() / 2];
+  }
+  if (points.size() >= 3) {
+    std::vector<std::size_t> sorted = points;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    median_points_ = sorted[sorted.size() / 2];
+    const std::size_t half = median_points_ / 2;
+    if (points.back() < half) stamps_.pop_back(), start_unit_.pop_back(), ++partial_;
+    if (points.front() < half) stamps_.erase(stamps_.begin()), start_unit_.erase(start_unit_.begin()), ++partial_;
+  }
   for (std::size_t i = 1; i < stamps_.size(); ++i)
     if (stamps_[i] <= stamps_[i - 1])
       throw Error(stream_->where(start_unit_[i]) + ": sweep " + std::to_string(i) + " is stamped no later than the sweep before it (the " +
@@ -75,8 +94,10 @@ Frame frame_of_sweep(const lidar::Sweep& sweep, const lidar::SensorInfo& sensor)
     strongest |= p.return_type == ReturnType::Strongest;
     last |= p.return_type == ReturnType::Last;
   }
+  // A firing whose strongest return is also its first or last is reported once, as FirstStrong or
+  // LastStrong (Hesai's dual modes): kept with the strongest.
   auto keep = [&](ReturnType t) {
-    if (t == ReturnType::Identical) return true;
+    if (t == ReturnType::Identical || t == ReturnType::FirstStrong || t == ReturnType::LastStrong) return true;
     if (strongest) return t == ReturnType::Strongest;
     if (last) return t == ReturnType::Last;
     return true;

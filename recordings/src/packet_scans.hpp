@@ -34,6 +34,8 @@ class PacketScans {
   const lidar::SensorInfo& sensor() const { return sensor_; }
   const lidar::DecodeCounts& counts() const { return counts_; }  // of the pass made on opening
   lidar::Vendor vendor() const { return vendor_; }
+  std::size_t partial_sweeps() const { return partial_; }  // at the start or end, left out
+  std::size_t median_points() const { return median_points_; }
   // Sweep i as a scan: one return a firing (the strongest, where the sensor reports several), rings
   // bottom to top, times from the sweep's stamp.
   Frame frame(std::size_t i);
@@ -47,6 +49,7 @@ class PacketScans {
   lidar::SensorInfo sensor_;
   lidar::DecodeCounts counts_;
   std::vector<std::int64_t> stamps_;
+  std::size_t partial_ = 0, median_points_ = 0;
   std::vector<std::size_t> start_unit_;  // the unit whose packets begin sweep i
   std::unique_ptr<lidar::PacketDecoder> cursor_;
   std::size_t next_unit_ = 0;
@@ -54,8 +57,8 @@ class PacketScans {
   std::vector<lidar::Sweep> ready_;  // decoded, not yet asked for
 };
 
-// One return a firing: where a sweep holds the strongest returns, those (and returns reported once for
-// both); else the last; else all.
+// One return a firing: where a sweep holds the strongest returns, those (and returns reported once as
+// both, or as the strongest and the first or last); else the last; else all.
 Frame frame_of_sweep(const lidar::Sweep& sweep, const lidar::SensorInfo& sensor);
 
 }  // namespace pl

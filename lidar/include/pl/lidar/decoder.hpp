@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -89,6 +90,11 @@ class PacketDecoder {
 
 enum class Vendor { Velodyne, Hesai, RoboSense, Ouster };
 const char* vendor_name(Vendor v);
+
+// The vendor whose packets begin as this one does (Velodyne's 1206-byte data packets, Hesai's 0xEEFF
+// header, RoboSense's MSOP and DIFOP headers); nullopt for others (Ouster's packets carry no mark:
+// its metadata tells them).
+std::optional<Vendor> vendor_of_packet(std::string_view packet);
 
 // The decoder for a vendor's packets. Throws pl::Error when the calibration it needs is missing or
 // unreadable: naming the file the model needs and the flag that gives it (--lidar-calibration).

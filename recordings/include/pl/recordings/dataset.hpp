@@ -129,7 +129,7 @@ struct Dataset {
 };
 
 // Reads the layout found at `path`: a KITTI folder, a ROS 1 bag, a ROS 2 bag (folder or .db3) or an
-// MCAP file (their scans point clouds or a LiDAR's packets). Throws pl::Error naming the file, the line or offset, and what was expected.
+// MCAP file (their scans point clouds or a LiDAR's packets), or a pcap capture of a LiDAR's packets. Throws pl::Error naming the file, the line or offset, and what was expected.
 Dataset open_dataset(const std::string& path, const DatasetOptions& options = {});
 // A recording's dataset (open_dataset calls it for bags and MCAP files).
 Dataset open_recording(const std::string& path, const DatasetOptions& options = {});
