@@ -41,7 +41,7 @@ CSV
 # capture folder | vendor | calibration file | options (the reference decoder's test parameters)
 captures=(
   "vlp16|velodyne|$cal/VLP16.yaml|"
-  "vlp32|velodyne|$cal/VLP32.yaml|"
+  "vlp32|velodyne|$cal/VLP32.yaml|--min-range 0.4 --max-range 50 --cut-azimuth 180"
   "vls128|velodyne|$cal/VLS128.yaml|"
   "xt16|hesai|$cal/PandarXT16.csv|--min-range 0.05 --max-range 120"
   "xt32|hesai|$cal/PandarXT32.csv|--min-range 0.05 --max-range 120"
