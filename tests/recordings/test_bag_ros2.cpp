@@ -44,6 +44,16 @@ TEST(Ros2Bag, Db3AloneListsTopicsWithTypesEncodingsAndCounts) {
   EXPECT_EQ(r->messages().size(), 4u);
 }
 
+TEST(Ros2Bag, AnUnnamedSerializationFormatIsCdr) {
+  // Older rosbag2 writers left the default format empty (tier4/nebula's VLS-128 capture).
+  TempDir dir;
+  write_db3(dir / "b.db3", {{1, "/velodyne_packets", "velodyne_msgs/msg/VelodyneScan", ""}}, {{1, 10, "a"}});
+  auto r = pl::bag::open_ros2(dir / "b.db3");
+  ASSERT_EQ(r->topics().size(), 1u);
+  EXPECT_EQ(r->topics()[0].type, "velodyne_msgs/VelodyneScan");
+  EXPECT_EQ(r->topics()[0].encoding, pl::bag::Encoding::Cdr);
+}
+
 TEST(Ros2Bag, Db3AloneGivesEveryMessagesBytesAndTimeBackInTimeOrder) {
   TempDir dir;
   // Out of time order as written, equal times (kept in row order), an empty message, one that
