@@ -2,7 +2,7 @@
 # PointLocalization: set-up, build, demo, tests and benchmarks in one command.
 #   ./pl demo    install what is missing, build Release, run the main job and print its result
 #   ./pl test    install what is missing, build Debug with ASan+UBSan (clang), run every test, the
-#                threaded ones again under ThreadSanitizer, fuzz each target 20 s
+#                threaded ones again under ThreadSanitizer, fuzz the targets 120 s in all
 #   ./pl bench   install what is missing, build Release, run every benchmark in bench/
 #   ./pl build   install what is missing and build Release only
 #   ./pl fuzz [TARGET...] [--seconds N]   build the libFuzzer targets (build/asan) and run each N s (60)
@@ -121,10 +121,10 @@ cmd_test() {
     --output-junit "$ROOT/build/test-results/asan.xml" || rc=1
   phase "finishing the TSan build" wait_for_builds $builds || rc=1
   # The fuzzers and the ThreadSanitizer tests (mostly waiting on their servers) side by side. The
-  # fuzzers share 160 s of wall time on every core (20 s each for 16 targets), at least 10 s each: a
-  # new target does not lengthen the run until there are 32.
+  # fuzzers share 120 s of wall time on every core, at most 20 s and at least 10 s each: a new target
+  # does not lengthen the run until there are 24.
   local targets=(build/asan/bin/fuzz_*) each
-  each=$(( 160 * JOBS / ${#targets[@]} ))
+  each=$(( 120 * JOBS / ${#targets[@]} ))
   (( each > 20 )) && each=20
   (( each < 10 )) && each=10
   bash tests/fuzz/run.sh build/asan/bin $each >build/fuzz-run.log 2>&1 &
