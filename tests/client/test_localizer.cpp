@@ -200,24 +200,16 @@ TEST(Localizer, StartsFiveMetresAndThirtyDegreesOff) {
 // calibration errors, a map merged with the sweep corrected) (tests run as separate
 // processes, possibly in parallel: made in a temporary folder, then renamed into place).
 std::string drive_and_map() {
-  const std::string dir = std::string(PL_BINARY_DIR) + "/test-data/localizer-drive-v2";
-  if (std::filesystem::exists(dir + "/done")) return dir;
-  pl::test::TempDir tmp;
-  const std::string d = tmp / "d";
-  auto sh = [](const std::string& cmd) {
-    const auto r = pl::test::run(cmd);
-    if (r.exit_code != 0) throw std::runtime_error(cmd + "\n" + r.output);
-  };
-  sh(pl::test::tool("pl-sim") + " --route loop --frames 60 --seed 5 --traffic 4 --out " + d + "/drive");
-  sh(pl::test::tool("pl-map") + " build --dataset " + d + "/drive --poses gt --out " + d + "/map.pcd");
-  sh(pl::test::tool("pl-map") + " tile --cloud " + d + "/map.pcd --db " + d + "/maps.sqlite --map town");
-  sh(pl::test::tool("pl-map") + " publish --db " + d + "/maps.sqlite --map town --version 1");
-  pl::test::write_file(d + "/done", "");
-  std::filesystem::create_directories(std::filesystem::path(dir).parent_path());
-  std::error_code ec;
-  std::filesystem::rename(d, dir, ec);  // another process may have won the race: fine
-  if (!std::filesystem::exists(dir + "/done")) throw std::runtime_error("could not make " + dir);
-  return dir;
+  return pl::test::made_once("localizer-drive-v2", [](const std::string& d) {
+    auto sh = [](const std::string& cmd) {
+      const auto r = pl::test::run(cmd);
+      if (r.exit_code != 0) throw std::runtime_error(cmd + "\n" + r.output);
+    };
+    sh(pl::test::tool("pl-sim") + " --route loop --frames 60 --seed 5 --traffic 4 --out " + d + "/drive");
+    sh(pl::test::tool("pl-map") + " build --dataset " + d + "/drive --poses gt --out " + d + "/map.pcd");
+    sh(pl::test::tool("pl-map") + " tile --cloud " + d + "/map.pcd --db " + d + "/maps.sqlite --map town");
+    sh(pl::test::tool("pl-map") + " publish --db " + d + "/maps.sqlite --map town --version 1");
+  });
 }
 
 nlohmann::json ape(const std::string& est, const std::string& gt) {

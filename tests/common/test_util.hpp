@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -108,6 +109,24 @@ bool eventually(F done, double seconds = 30.0) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   return true;
+}
+
+// Test data made once per build tree under build/test-data/NAME: `make` fills a temporary folder,
+// which is then renamed into place (tests run as separate processes, possibly in parallel: the
+// first to finish wins, the others' copies are dropped). Returns the folder.
+inline std::string made_once(const std::string& name, const std::function<void(const std::string& folder)>& make) {
+  const std::string dir = std::string(PL_BINARY_DIR) + "/test-data/" + name;
+  if (std::filesystem::exists(dir + "/done")) return dir;
+  TempDir tmp;
+  const std::string d = tmp / "d";
+  std::filesystem::create_directories(d);
+  make(d);
+  write_file(d + "/done", "");
+  std::filesystem::create_directories(std::filesystem::path(dir).parent_path());
+  std::error_code ec;
+  std::filesystem::rename(d, dir, ec);  // another process may have won the race: fine
+  if (!std::filesystem::exists(dir + "/done")) throw std::runtime_error("could not make " + dir);
+  return dir;
 }
 
 }  // namespace pl::test

@@ -9,6 +9,7 @@
 
 #include <unistd.h>
 
+#include "error_of.hpp"
 #include "hesai_packets.hpp"
 #include "pl/common/error.hpp"
 #include "pl/lidar/decoder.hpp"
@@ -53,14 +54,7 @@ std::vector<Sweep> decode(PacketDecoder& d, const std::vector<std::string>& pack
   return out;
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using pl::test::error_of;
 
 TEST(HesaiDecoder, EveryModelsPointsComeBackFromWrittenPackets) {
   for (const HesaiFormat& f : test::hesai_formats()) {

@@ -14,6 +14,7 @@
 
 #include <unistd.h>
 
+#include "error_of.hpp"
 #include "pl/common/error.hpp"
 #include "pl/lidar/decoder.hpp"
 #include "velodyne_packets.hpp"
@@ -25,14 +26,7 @@ using namespace velodyne_test;
 
 constexpr std::int64_t kHourNs = 472222LL * 3600 * 1'000'000'000;  // a top of the hour (2023-11-14 22:00 UTC)
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using pl::test::error_of;
 
 bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
@@ -387,7 +381,7 @@ TEST(VelodyneCalibration, ErrorsNameTheFileLineAndField) {
     return error_of([&] { make_decoder(Vendor::Velodyne, o); });
   };
   const std::string good = plain_calibration(16);
-  EXPECT_EQ(error_for(good), "(no error)");
+  EXPECT_EQ(error_for(good), "");
   // The value of the n-th `key` (0 first) replaced.
   auto replaced = [&](const std::string& key, int n, const std::string& value) {
     std::string t = good;

@@ -106,44 +106,36 @@ struct PacketDrive {
 
 // A 40-scan VLP-16 drive round the town loop, simulated, then written as packets (made once per build tree).
 PacketDrive packet_drive() {
-  const std::string dir = std::string(PL_BINARY_DIR) + "/test-data/packet-drive-v4";
-  PacketDrive d{dir + "/drive.mcap", dir + "/VLP16.yaml", dir + "/sim"};
-  if (std::filesystem::exists(dir + "/done")) return d;
-  pl::test::TempDir tmp;
-  const std::string t = tmp / "d";
-  const auto sim = pl::test::run(pl::test::tool("pl-sim") + " --route loop --frames 40 --seed 11 --lidar vlp16 --calibration-error 0 --sweep off --out " + t + "/sim");
-  if (sim.exit_code != 0) throw std::runtime_error(sim.output);
-  const pl::Dataset ds = pl::open_dataset(t + "/sim");
-  {
-    pl::McapWriter mcap(t + "/drive.mcap");
-    const auto scans = mcap.add_channel(mcap.add_schema("velodyne_msgs/msg/VelodyneScan", "ros2msg", ""), "/velodyne_packets", "cdr");
-    const auto truth = mcap.add_channel(mcap.add_schema("nav_msgs/msg/Odometry", "ros2msg", ""), "/ground_truth", "cdr");
-    for (std::size_t i = 0; i < ds.size(); ++i) {
-      const std::vector<Column> cols = columns_of(ds.load_frame(i, false), ds.times[i]);
-      const std::uint64_t ns = static_cast<std::uint64_t>(to_ns(cols.back().time_s));
-      mcap.write(scans, static_cast<std::uint32_t>(i), ns, ns, velodyne_scan(cols));
-      const std::uint64_t gt_ns = static_cast<std::uint64_t>(to_ns(ds.times[i]));
-      mcap.write(truth, static_cast<std::uint32_t>(i), gt_ns, gt_ns, odometry(ds.times[i], ds.ground_truth.poses[i]));
+  const std::string dir = pl::test::made_once("packet-drive-v4", [](const std::string& t) {
+    const auto sim = pl::test::run(pl::test::tool("pl-sim") + " --route loop --frames 40 --seed 11 --lidar vlp16 --calibration-error 0 --sweep off --out " + t + "/sim");
+    if (sim.exit_code != 0) throw std::runtime_error(sim.output);
+    const pl::Dataset ds = pl::open_dataset(t + "/sim");
+    {
+      pl::McapWriter mcap(t + "/drive.mcap");
+      const auto scans = mcap.add_channel(mcap.add_schema("velodyne_msgs/msg/VelodyneScan", "ros2msg", ""), "/velodyne_packets", "cdr");
+      const auto truth = mcap.add_channel(mcap.add_schema("nav_msgs/msg/Odometry", "ros2msg", ""), "/ground_truth", "cdr");
+      for (std::size_t i = 0; i < ds.size(); ++i) {
+        const std::vector<Column> cols = columns_of(ds.load_frame(i, false), ds.times[i]);
+        const std::uint64_t ns = static_cast<std::uint64_t>(to_ns(cols.back().time_s));
+        mcap.write(scans, static_cast<std::uint32_t>(i), ns, ns, velodyne_scan(cols));
+        const std::uint64_t gt_ns = static_cast<std::uint64_t>(to_ns(ds.times[i]));
+        mcap.write(truth, static_cast<std::uint32_t>(i), gt_ns, gt_ns, odometry(ds.times[i], ds.ground_truth.poses[i]));
+      }
+      // The last sweep begins just after the last scan's time: one more pose, the last step again.
+      const std::size_t n = ds.size();
+      const pl::Pose step = ds.ground_truth.poses[n - 2].inverse() * ds.ground_truth.poses[n - 1];
+      const double after = 2 * ds.times[n - 1] - ds.times[n - 2];
+      const std::uint64_t ns = static_cast<std::uint64_t>(to_ns(after));
+      mcap.write(truth, static_cast<std::uint32_t>(n), ns, ns, odometry(after, pl::Pose(ds.ground_truth.poses[n - 1] * step)));
+      mcap.close();
     }
-    // The last sweep begins just after the last scan's time: one more pose, the last step again.
-    const std::size_t n = ds.size();
-    const pl::Pose step = ds.ground_truth.poses[n - 2].inverse() * ds.ground_truth.poses[n - 1];
-    const double t = 2 * ds.times[n - 1] - ds.times[n - 2];
-    const std::uint64_t ns = static_cast<std::uint64_t>(to_ns(t));
-    mcap.write(truth, static_cast<std::uint32_t>(n), ns, ns, odometry(t, pl::Pose(ds.ground_truth.poses[n - 1] * step)));
-    mcap.close();
-  }
-  pl::test::write_file(t + "/VLP16.yaml", vt::calibration_yaml(kLasers, [](int i) {
-                         vt::LaserCal c;
-                         c.elevation_deg = -15 + 2 * i;
-                         return c;
-                       }));
-  pl::test::write_file(t + "/done", "");
-  std::filesystem::create_directories(std::filesystem::path(dir).parent_path());
-  std::error_code ec;
-  std::filesystem::rename(t, dir, ec);  // another process may have won the race: fine
-  if (!std::filesystem::exists(dir + "/done")) throw std::runtime_error("could not make " + dir);
-  return d;
+    pl::test::write_file(t + "/VLP16.yaml", vt::calibration_yaml(kLasers, [](int i) {
+                           vt::LaserCal c;
+                           c.elevation_deg = -15 + 2 * i;
+                           return c;
+                         }));
+  });
+  return {dir + "/drive.mcap", dir + "/VLP16.yaml", dir + "/sim"};
 }
 
 TEST(PacketRecording, InfoNamesTheSensorAndItsSweeps) {
