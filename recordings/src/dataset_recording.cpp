@@ -1,5 +1,6 @@
 // A recording as a dataset: the point-cloud topic's messages are the scans (at their header stamps,
-// the recording's own clock, kept absolute), the odometry topic gives odometry poses of the LiDAR,
+// the recording's own clock, kept absolute), or a LiDAR's packet topic's sweeps (dataset_packets.cpp,
+// at their first firing), the odometry topic gives odometry poses of the LiDAR,
 // the NavSatFix topic GPS fixes in an ENU frame at the first fix, and /tf_static the extrinsics that
 // tie the three frames together (the GPS antenna's lever arm in the LiDAR frame).
 #include "dataset_recording.hpp"
@@ -13,17 +14,16 @@
 #include <mutex>
 #include <optional>
 
+#include "packet_scans.hpp"
 #include "pl/common/error.hpp"
 #include "pl/common/scan.hpp"
 #include "pl/common/text.hpp"
-#include "pl/recordings/bag.hpp"
 #include "pl/lidar/beam_table.hpp"
+#include "pl/recordings/bag.hpp"
 #include "pl/recordings/packet_msgs.hpp"
 #include "pl/recordings/ros_msgs.hpp"
-#include "packet_scans.hpp"
 
 namespace pl {
-
 
 RecordingScans::~RecordingScans() = default;
 
