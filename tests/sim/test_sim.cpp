@@ -499,6 +499,109 @@ TEST(SimDrive, SpeedScaleDrivesTheRouteFasterAtTheSameScanRate) {
   EXPECT_THROW(simulate(o), pl::Error);
 }
 
+// objects.csv without the last two columns (the returns this drive got): the world's things.
+std::vector<std::string> object_rows(const std::string& csv) {
+  std::vector<std::string> rows;
+  std::size_t at = 0;
+  while (at < csv.size()) {
+    const std::size_t end = std::min(csv.find('\n', at), csv.size());
+    std::string row = csv.substr(at, end - at);
+    for (int k = 0; k < 2; ++k) row = row.substr(0, row.rfind(','));
+    rows.push_back(row);
+    at = end + 1;
+  }
+  return rows;
+}
+
+TEST(SimDrive, ReverseDrivesTheSameStretchBackThroughTheSameWorld) {
+  TempDir dir;
+  SimOptions o = loop_drive(20, dir / "fwd");
+  o.map_out = dir / "fwd.pcd";
+  o.map_spacing = 0.5;
+  simulate(o);
+  auto r = pl::test::run(pl::test::tool("pl-sim") + " --route loop --frames 20 --lidar vlp16 --reverse --out " + (dir / "rev") +
+                         " --map-out " + (dir / "rev.pcd") + " --map-spacing 0.5");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // The same world: the same things in the same places, the same reference cloud.
+  const auto fwd_objects = object_rows(pl::test::read_file(dir / "fwd/objects.csv"));
+  EXPECT_GT(fwd_objects.size(), 100u);
+  EXPECT_EQ(fwd_objects, object_rows(pl::test::read_file(dir / "rev/objects.csv")));
+  EXPECT_EQ(pl::test::read_file(dir / "fwd.pcd"), pl::test::read_file(dir / "rev.pcd"));
+  const pl::Dataset a = pl::open_dataset(dir / "fwd"), b = pl::open_dataset(dir / "rev");
+  ASSERT_EQ(b.size(), 20u);
+  ASSERT_EQ(b.ground_truth.size(), 20u);
+  EXPECT_EQ(b.times.front(), 0.0);
+  // It starts where the forward drive ends; every pose lies on the forward path, the LiDAR as high
+  // and as upright, facing the other way.
+  EXPECT_LT((b.ground_truth.poses.front().translation() - a.ground_truth.poses.back().translation()).norm(), 0.01);
+  EXPECT_LT((b.ground_truth.poses.back().translation() - a.ground_truth.poses.front().translation()).norm(), 0.01);
+  for (std::size_t i = 0; i < b.size(); ++i) {
+    const pl::Pose& p = b.ground_truth.poses[i];
+    std::size_t nearest = 0;
+    for (std::size_t j = 1; j < a.size(); ++j)
+      if ((a.ground_truth.poses[j].translation() - p.translation()).norm() <
+          (a.ground_truth.poses[nearest].translation() - p.translation()).norm())
+        nearest = j;
+    const pl::Pose& q = a.ground_truth.poses[nearest];
+    EXPECT_LT((q.translation() - p.translation()).norm(), 0.03) << i;
+    EXPECT_NEAR(std::abs(std::remainder(pl::yaw_of(p) - pl::yaw_of(q), 2 * M_PI)), M_PI, 1e-3) << i;
+    EXPECT_GT(p.linear().col(2).dot(q.linear().col(2)), 1.0 - 1e-6) << i;
+    if (i + 1 < b.size()) {  // moving forward in its own frame, 0.1 s apart
+      EXPECT_GT((b.ground_truth.poses[i + 1].translation() - p.translation()).dot(p.linear().col(0)), 0.3) << i;
+      EXPECT_NEAR(b.times[i + 1] - b.times[i], 0.1, 1e-6) << i;
+    }
+    if (i % 6 == 0) {
+      EXPECT_GT(b.load_scan(i).size(), 5000u) << i;
+    }
+  }
+  // The wheels turn forwards.
+  ASSERT_FALSE(b.encoder.empty());
+  EXPECT_GT(b.encoder.back().left_m, 5.0);
+  EXPECT_GT(b.encoder.back().right_m, 5.0);
+}
+
+TEST(SimTraffic, ReversedTrafficKeepsItsLanesRelativeToTheEgoVehicle) {
+  // Leads in the ego lane (on the path), oncoming vehicles 3 m to the ego's left: on the forward
+  // path's right when the route is driven the other way, moving the way the forward route does.
+  const SimTrajectory back = loop().reversed();
+  TrafficConfig cfg;
+  cfg.count = 40;
+  cfg.pedestrian_share = 0.0;
+  const Traffic traffic(back, back.start_time(), back.end_time(), cfg);
+  const auto& fwd = loop().poses();
+  const auto nearest = [&](const Eigen::Vector2f& c) {  // the forward pose nearest to c
+    std::size_t n = 0;
+    for (std::size_t j = 1; j < fwd.size(); ++j)
+      if ((fwd[j].translation().head<2>() - c.cast<double>()).squaredNorm() <
+          (fwd[n].translation().head<2>() - c.cast<double>()).squaredNorm())
+        n = j;
+    return fwd[n];
+  };
+  int leads = 0, oncoming = 0;
+  for (double t : {20.0, 45.0}) {
+    const auto now = traffic.positions_at(t), later = traffic.positions_at(t + 0.5);
+    ASSERT_EQ(now.size(), later.size());
+    const pl::Pose ego = back.pose_at(t);
+    for (std::size_t k = 0; k < now.size(); ++k) {
+      const pl::Pose on = nearest(now[k]);
+      const Eigen::Vector2d f = on.linear().col(0).head<2>().normalized(), left(-f.y(), f.x());
+      const double lateral = (now[k].cast<double>() - on.translation().head<2>()).dot(left);
+      const double along = (later[k] - now[k]).cast<double>().dot(f);
+      const bool lead = (now[k].cast<double>() - ego.translation().head<2>()).norm() < 30.0 && std::abs(lateral) < 0.3;
+      if (lead) {
+        ++leads;
+        EXPECT_LT(along, 0.0) << "a lead drives with the ego vehicle, against the forward route";
+      } else {
+        ++oncoming;
+        EXPECT_NEAR(lateral, -3.0, 0.3) << "oncoming: the ego's left, the forward route's right";
+        EXPECT_GT(along, 0.0) << "oncoming: towards the ego vehicle, the forward route's way";
+      }
+    }
+  }
+  EXPECT_GT(oncoming, 10);
+  EXPECT_GT(leads, 0);
+}
+
 TEST(SimDrive, CommandLine) {
   TempDir dir;
   auto r = pl::test::run(pl::test::tool("pl-sim") + " --route loop --frames 30 --lidar rs16 --fov 180 --out " + (dir / "d") +

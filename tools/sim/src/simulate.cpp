@@ -191,10 +191,17 @@ SimReport simulate(const SimOptions& o) {
   if (!o.gnss_profile.empty()) gps_cfg.profile = read_gnss_profile(o.gnss_profile);
 
   std::vector<double> scan_times;
-  SimTrajectory traj = load_trajectory(o, scan_times);
+  const SimTrajectory route = load_trajectory(o, scan_times);
   if (scan_times.size() < 2) throw Error("the drive needs at least two scans");
+  // The world comes from the forward route's stretch alone, whichever way it is driven.
+  const SimTrajectory street = street_of(route, scan_times.front(), scan_times.back(), 80.0);
+  // --reverse: the same stretch from its end back to its start, the scans at the same places.
+  const SimTrajectory traj = o.reverse ? route.reversed() : route;
+  if (o.reverse) {
+    std::reverse(scan_times.begin(), scan_times.end());
+    for (double& t : scan_times) t = route.start_time() + route.end_time() - t;
+  }
   const double t0 = scan_times.front(), t1 = scan_times.back();
-  const SimTrajectory street = street_of(traj, t0, t1, 80.0);
   World world = build_world(street, street.start_time(), street.end_time(), o.world);
   Scene scene;
   scene.bvh = Bvh(world.shapes(scene.info));

@@ -39,6 +39,19 @@ SimTrajectory SimTrajectory::retimed(double speed_scale) const {
   return SimTrajectory(std::move(t), poses_);
 }
 
+SimTrajectory SimTrajectory::reversed() const {
+  Pose turn = Pose::Identity();  // 180 deg about z, exactly: x and y flip, z (up) stays
+  turn.linear().diagonal() << -1.0, -1.0, 1.0;
+  const double mirror = times_.front() + times_.back();
+  std::vector<double> t;
+  std::vector<Pose, Eigen::aligned_allocator<Pose>> p;
+  for (std::size_t i = times_.size(); i-- > 0;) {
+    t.push_back(mirror - times_[i]);
+    p.push_back(poses_[i] * turn);
+  }
+  return SimTrajectory(std::move(t), std::move(p));
+}
+
 double SimTrajectory::max_speed() const {
   double v = 0.0;
   for (std::size_t i = 1; i < times_.size(); ++i) v = std::max(v, (cumulative_[i] - cumulative_[i - 1]) / (times_[i] - times_[i - 1]));

@@ -17,6 +17,9 @@ struct SimOptions {
   std::string times_path;       // its times (found beside it when empty)
   bool lidar_poses = false;     // the file holds LiDAR poses (else KITTI cam0 poses)
   double speed_scale = 1.0;     // the route driven this many times as fast (scans stay at 10 Hz)
+  // The stretch the other options drive, driven from its end back to its start through the same
+  // world (built along the forward path, so the direction cannot change it).
+  bool reverse = false;
   std::string out_dir;
   long long frames = 0;  // 0: the whole route
   WorldConfig world;
@@ -53,7 +56,8 @@ struct SimReport {
   int threads = 1;
 };
 
-// The trajectory the options describe, and the scan times on it.
+// The trajectory the options describe, and the scan times on it, forward (the world is built along
+// it; simulate() turns it round for `reverse`).
 SimTrajectory load_trajectory(const SimOptions& o, std::vector<double>& scan_times);
 
 // Writes the dataset into o.out_dir (through a sibling folder renamed into place at the end, so an

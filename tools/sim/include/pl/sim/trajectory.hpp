@@ -26,6 +26,9 @@ class SimTrajectory {
   const std::vector<double>& times() const { return times_; }
   // The same path driven `speed_scale` times as fast (times from the start divided by it).
   SimTrajectory retimed(double speed_scale) const;
+  // The same path driven the other way: its time start + end - t is this one's time t, and the
+  // vehicle is turned by 180 deg about its up axis (same place and height), facing the way it drives.
+  SimTrajectory reversed() const;
   // The fastest speed between two samples, m/s.
   double max_speed() const;
   const std::vector<Pose, Eigen::aligned_allocator<Pose>>& poses() const { return poses_; }
