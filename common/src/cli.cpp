@@ -182,6 +182,11 @@ CLI::Option* output_file(CLI::App& app, const std::string& flag, std::string& pa
   return app.add_option(flag, path, help)->check(CLI::Validator(check, ""))->type_name("FILE");
 }
 
+CLI::Option* output_files(CLI::App& app, const std::string& flag, std::vector<std::string>& paths, const std::string& help) {
+  auto check = [](std::string& p) { return output_file_problem(p); };
+  return app.add_option(flag, paths, help)->check(CLI::Validator(check, ""))->type_name("FILE");
+}
+
 CLI::Option* output_folder(CLI::App& app, const std::string& flag, std::string& path, const std::string& help) {
   auto check = [](std::string& p) { return output_folder_problem(p); };
   return app.add_option(flag, path, help)->check(CLI::Validator(check, ""))->type_name("DIR");

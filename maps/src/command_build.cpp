@@ -20,17 +20,29 @@ namespace pl::maps {
 
 void add_build(cli::Tool& tool, std::ostream& out) {
   struct State {
-    std::string dataset, out, traj_out, odometry_out, report;
+    std::vector<std::string> datasets, traj_out, odometry_out;
+    std::string out, report;
     pl::DatasetOptions topics;
     GloamConfig cfg;
   };
   auto s = std::make_shared<State>();
-  CLI::App& c = tool.command("build", "merge a drive's scans into a voxelized map (PCD in the dataset's world frame, its "
-                             "geodetic origin in the header) at ground-truth or LiDAR-odometry poses", [s, &out] {
+  CLI::App& c = tool.command("build", "merge the scans of one drive or several into a voxelized map (PCD in the first "
+                             "dataset's world frame, its geodetic origin in the header) at ground-truth or LiDAR-odometry poses", [s, &out] {
     check_gloam_config(s->cfg);
     if (!s->odometry_out.empty() && s->cfg.poses != PoseSource::Lidar)
       throw pl::Error("--odometry-out needs --poses lidar (with --poses gt no odometry runs)");
-    const pl::Dataset ds = pl::open_dataset(s->dataset, s->topics);
+    const GloamOutputs outputs{s->out, s->report, s->traj_out, s->odometry_out};
+    if (!outputs.trajectories.empty() && outputs.trajectories.size() != s->datasets.size())
+      throw pl::Error(format_text("--traj-out: %zu given for %zu drives (one per --dataset, in the same order)", outputs.trajectories.size(),
+                                  s->datasets.size()));
+    if (!outputs.odometry.empty() && outputs.odometry.size() != s->datasets.size())
+      throw pl::Error(format_text("--odometry-out: %zu given for %zu drives (one per --dataset, in the same order)", outputs.odometry.size(),
+                                  s->datasets.size()));
+    std::vector<pl::Dataset> datasets;
+    datasets.reserve(s->datasets.size());
+    for (const std::string& path : s->datasets) datasets.push_back(pl::open_dataset(path, s->topics));
+    std::vector<const pl::Dataset*> drives;
+    for (const pl::Dataset& ds : datasets) drives.push_back(&ds);
     pl::StageProgress bars;
     GloamObserver observer;
     observer.progress = [&](const std::string& stage, std::size_t done, std::size_t total) { bars.update(stage, done, total); };
@@ -38,13 +50,14 @@ void add_build(cli::Tool& tool, std::ostream& out) {
       bars.finish();
       out << line << '\n';
     };
-    const GloamResult r = build_gloam_map(ds, s->cfg, observer);
+    const GloamResult r = build_gloam_map(drives, s->cfg, observer);
     bars.finish();
-    out << write_gloam_outputs(r, s->out, s->traj_out, s->report, s->odometry_out);
+    out << write_gloam_outputs(r, outputs);
     return 0;
   });
   MapBuildConfig& merge = s->cfg.merge;
-  cli::dataset_option(c, s->dataset, s->topics, "the drive to build the map from");
+  cli::datasets_option(c, s->datasets, s->topics, "a drive to build the map from; repeat it for a map of several drives (any mix "
+                       "of folders and recordings), placed by one pose graph with loops between them");
   cli::output_file(c, "--out", s->out, "where to write the map (PCD)")->required();
   cli::choice(c, "--poses", s->cfg.poses, "gt: the dataset's ground truth; lidar: LiDAR odometry (without --gps started at "
               "the first ground-truth pose when there is one)", {{"gt", PoseSource::GroundTruth}, {"lidar", PoseSource::Lidar}});
@@ -52,11 +65,11 @@ void add_build(cli::Tool& tool, std::ostream& out) {
              "(robust to multipath) sets the poses; the ground truth is not used");
   c.add_flag("--loops", s->cfg.loops, "(with --poses lidar) loop closures found by position and by a place descriptor, verified "
              "by ICP, join the graph (re-solved on each)");
-  cli::output_file(c, "--traj-out", s->traj_out, "write the LiDAR pose of every scan, line for line with the dataset (KITTI; "
-                   "TUM with the scan times when FILE ends in .tum)");
-  cli::output_file(c, "--odometry-out", s->odometry_out, "(with --poses lidar) write the LiDAR odometry's pose of every scan, "
-                   "before --gps and --loops corrected them (moved as a whole to start where the graph put the first "
-                   "scan), in the format of --traj-out: the drift and the correction from one run");
+  cli::output_files(c, "--traj-out", s->traj_out, "write the LiDAR pose of every scan in the map's frame, line for line with the dataset "
+               "(KITTI; TUM with the scan times when FILE ends in .tum); one per --dataset, in order");
+  cli::output_files(c, "--odometry-out", s->odometry_out, "(with --poses lidar) write the LiDAR odometry's pose of every scan, before --gps "
+               "and --loops corrected them (moved as a whole to start where the graph put the drive's first scan), in the format "
+               "of --traj-out: the drift and the correction from one run; one per --dataset");
   cli::output_file(c, "--report", s->report, "write JSON: keyframes, GPS edges and outliers, GPS residuals, loops proposed/"
                    "accepted/rejected (and why), the mean error against ground truth before and after the graph, times");
   cli::choice(c, "--deskew", s->cfg.deskew, "correct each scan for the motion during the sweep, timed by azimuth (auto: the "

@@ -4,7 +4,11 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <map>
+#include <optional>
 #include <vector>
+
+#include <Eigen/Geometry>
 
 #include <nlohmann/json.hpp>
 
@@ -23,6 +27,13 @@ namespace {
 // their own times (point_times/: pl-sim's swept scans, a driver's per-point times).
 bool deskews(const GloamConfig& cfg, const Dataset& ds) {
   return cfg.deskew == Deskew::On || (cfg.deskew == Deskew::Auto && (!ds.has_meta_file || ds.has_point_times()));
+}
+
+// The merge corrects the sweep when told, or by itself for scans that carry their points' times
+// (the sensor says it sweeps). Not for KITTI raw by default: on drive 0005 the azimuth-timed
+// correction of map and scans did not make the localizer's error smaller (docs/benchmarks.md).
+bool merge_deskews(const GloamConfig& cfg, const Dataset& ds) {
+  return cfg.deskew == Deskew::On || (cfg.deskew == Deskew::Auto && ds.has_point_times());
 }
 
 // The observer's calls, each optional.
@@ -49,6 +60,8 @@ nlohmann::json loop_report_json(const LoopReport& lr, const PoseGraph& graph) {
   for (const LoopRecord& l : lr.loops)
     loops.push_back({{"query_scan", graph.keyframes()[l.query]},
                      {"match_scan", graph.keyframes()[l.match]},
+                     {"query_drive", graph.drive_of(l.query) + 1},
+                     {"match_drive", graph.drive_of(l.match) + 1},
                      {"proposed_by", l.by_descriptor ? "place" : "position"},
                      {"accepted", l.accepted},
                      {"reason", l.reason},
@@ -76,85 +89,147 @@ nlohmann::json graph_report_json(const PoseGraphReport& r) {
           {"termination", r.termination}};
 }
 
-// LiDAR odometry over every scan (it needs them all to follow the drive), then the pose graph with
-// the GPS fixes and the loop closures when asked; fills the report. Returns one pose per scan, and
-// the odometry's own in `odometry` (before the graph; moved as a whole to start where the graph put
-// the first scan).
-Trajectory lidar_poses(const Dataset& ds, const GloamConfig& cfg, const std::vector<GpsEdge>& gps_edges,
-                       std::optional<GeoPoint>& origin, nlohmann::json& report, const Tell& tell, Trajectory& odometry_out) {
-  // Mean translation error against ground truth, when the dataset has it.
-  auto mean_error = [&](const Trajectory& t) {
-    double sum = 0;
-    for (std::size_t i = 0; i < ds.size(); ++i) sum += (t.poses[i].translation() - ds.ground_truth.poses[i].translation()).norm();
-    return sum / static_cast<double>(ds.size());
-  };
-  Trajectory placed;
+// One drive's LiDAR odometry over every scan (it needs them all to follow the drive), started at
+// `start`, with the clouds of the graph's keyframes when loops are asked for (the keyframe rule is
+// causal, so they are kept as the odometry runs; the other scans are not held). Those clouds are
+// corrected for the sweep as the merge corrects the drive's scans: uncorrected, two drives through a
+// place in opposite directions see it skewed opposite ways, and their loops were 0.2-0.3 m off.
+struct DriveOdometry {
+  PoseList poses;
+  std::vector<Information6> information;
+  std::vector<std::vector<Eigen::Vector3f>> keyframe_clouds;
+  double median_ms = 0;
+  std::size_t degenerate = 0;
+  bool deskew = false;
+};
+
+DriveOdometry run_odometry(const Dataset& ds, const GloamConfig& cfg, const Pose& start, const std::string& stage, const Tell& tell) {
+  DriveOdometry out;
   LoamConfig lc = cfg.loam;
-  lc.deskew = deskews(cfg, ds);
+  lc.deskew = out.deskew = deskews(cfg, ds);
   if (ds.meta.sensor.rate_hz > 0) lc.scan_period_s = 1.0 / ds.meta.sensor.rate_hz;
   LoamOdometry odometry(lc);
-  // Without GPS: started at the first ground-truth pose when there is one, so that the map lies in
-  // the dataset's world frame; otherwise in the first scan's frame, which has no geodetic origin.
-  // With GPS the ground truth is not used at all: the odometry starts in the first scan's frame
-  // and the fixes place it.
-  const bool start_at_truth = ds.has_ground_truth() && !cfg.gps;
-  if (start_at_truth)
-    odometry.start(ds.ground_truth.poses[0]);
-  else
-    origin.reset();
+  odometry.start(start);
+  const bool deskew_clouds = merge_deskews(cfg, ds);
+  const double sweep_s = ds.meta.sensor.rate_hz > 0 ? 1.0 / ds.meta.sensor.rate_hz : cfg.merge.sweep_s;
   std::vector<double> ms;
-  std::vector<Information6> information;
-  std::size_t degenerate = 0;
-  // The graph's keyframes are chosen by a causal rule, so their clouds for loop closure are kept
-  // as the odometry runs (thinned; the other scans are not held).
-  std::vector<std::vector<Eigen::Vector3f>> keyframe_clouds;
   Pose last_keyframe = Pose::Identity();
   ScanPrepConfig loop_prep = cfg.merge.scan;
   loop_prep.voxel_m = cfg.loop_voxel_m;
-  const auto t_start = std::chrono::steady_clock::now();
   for (std::size_t i = 0; i < ds.size(); ++i) {
     Frame frame = ds.load_frame(i);
-    Scan& scan = frame.scan;
-    LoamFrame f = odometry.add(scan, frame.rings, ds.times[i]);
-    placed.poses.push_back(f.pose);
-    information.push_back(f.information);
+    LoamFrame f = odometry.add(frame.scan, frame.rings, ds.times[i]);
+    out.poses.push_back(f.pose);
+    out.information.push_back(f.information);
     ms.push_back(f.ms);
-    degenerate += f.degenerate;
+    out.degenerate += f.degenerate;
     if (cfg.loops && (i == 0 || is_new_keyframe(last_keyframe, f.pose, cfg.graph))) {
       last_keyframe = f.pose;
-      keyframe_clouds.push_back(to_points(prepare_scan(scan, {}, loop_prep)));
+      const double dt = i > 0 ? ds.times[i] - ds.times[i - 1] : 0.0;
+      if (deskew_clouds && dt > 0)  // the motion since the last scan, as a constant velocity
+        compensate_sweep(frame.scan, frame.times, scale_motion(out.poses[i - 1].inverse() * f.pose, sweep_s / dt), sweep_s);
+      out.keyframe_clouds.push_back(to_points(prepare_scan(frame.scan, {}, loop_prep)));
     }
-    tell.progress("lidar odometry", i + 1, ds.size());
+    tell.progress(stage, i + 1, ds.size());
   }
-  placed.times = ds.times;
   std::sort(ms.begin(), ms.end());
-  tell.log(format_text("lidar odometry: %zu scans (deskew %s), median %.1f ms a scan, %zu degenerate%s", ds.size(),
-                       lc.deskew ? "on" : "off", ms[ms.size() / 2], degenerate,
-                       start_at_truth ? ", started at the first ground-truth pose" : ", in the first scan's frame"));
-  report["odometry"] = {{"median_ms", ms[ms.size() / 2]}, {"degenerate", degenerate}, {"deskew", lc.deskew}};
-  if (ds.has_ground_truth()) {
-    // The odometry's error as if it had started at the first ground-truth pose.
-    Trajectory from_truth = placed;
-    if (!start_at_truth)
-      for (Pose& p : from_truth.poses) p = ds.ground_truth.poses[0] * p;
-    report["mean_error_before_m"] = mean_error(from_truth);
+  out.median_ms = ms.empty() ? 0.0 : ms[ms.size() / 2];
+  return out;
+}
+
+// A drive's world frame in the map's (the first drive's): both datasets' projections of the same
+// geodetic points, fitted rigidly. None when only one of them has a geodetic reference; identity
+// when neither has one (taken to share the frame).
+std::optional<Pose> frame_in_map(const Dataset& ds, const Dataset& map) {
+  using Kind = WorldProjection::Kind;
+  if (ds.projection.kind == Kind::None && map.projection.kind == Kind::None) return Pose::Identity();
+  if (ds.projection.kind == Kind::None || map.projection.kind == Kind::None) return std::nullopt;
+  const EnuFrame around(ds.projection.origin);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> from(3, 18), to(3, 18);
+  int c = 0;
+  for (double x : {-200.0, 0.0, 200.0})
+    for (double y : {-200.0, 0.0, 200.0})
+      for (double z : {0.0, 20.0}) {
+        const GeoPoint g = around.to_geodetic(Eigen::Vector3d(x, y, z));
+        from.col(c) = ds.to_world(g);
+        to.col(c) = map.to_world(g);
+        ++c;
+      }
+  Pose t = Pose::Identity();
+  t.matrix() = Eigen::umeyama(from, to, false);
+  return t;
+}
+
+double mean_error(const PoseList& poses, const PoseList& truth) {
+  double sum = 0;
+  for (std::size_t i = 0; i < truth.size(); ++i) sum += (poses[i].translation() - truth[i].translation()).norm();
+  return truth.empty() ? 0.0 : sum / static_cast<double>(truth.size());
+}
+
+// The drives' LiDAR odometry, then one pose graph over them with the GPS fixes and the loop closures
+// when asked; fills the report. Returns each drive's poses in the map frame, and in `odometry` each
+// drive's odometry before the graph (moved as a whole to start where the graph put its first scan).
+std::vector<Trajectory> lidar_poses(const std::vector<const Dataset*>& drives, const GloamConfig& cfg,
+                                    const std::vector<std::vector<GpsEdge>>& gps, const std::vector<PoseList>& truth,
+                                    std::optional<GeoPoint>& origin, nlohmann::json& report, const Tell& tell,
+                                    std::vector<Trajectory>& odometry_out) {
+  const std::size_t n = drives.size();
+  // Without GPS the first drive starts at its first ground-truth pose when there is one, so that the
+  // map lies in the dataset's world frame; otherwise in its first scan's frame, which has no geodetic
+  // origin. With GPS the ground truth is not used at all. Other drives start in their own frame: the
+  // fixes or the loops place them.
+  const bool start_at_truth = !truth[0].empty() && !cfg.gps;
+  if (!start_at_truth) origin.reset();
+  std::vector<DriveOdometry> runs(n);
+  const auto t_start = std::chrono::steady_clock::now();
+  std::size_t scans = 0;
+  for (std::size_t d = 0; d < n; ++d) {
+    const Dataset& ds = *drives[d];
+    const std::string stage = n > 1 ? format_text("lidar odometry, drive %zu of %zu", d + 1, n) : "lidar odometry";
+    runs[d] = run_odometry(ds, cfg, d == 0 && start_at_truth ? truth[0][0] : Pose::Identity(), stage, tell);
+    scans += ds.size();
+    tell.log(format_text("%s: %zu scans (deskew %s), median %.1f ms a scan, %zu degenerate%s", stage.c_str(), ds.size(),
+                         runs[d].deskew ? "on" : "off", runs[d].median_ms, runs[d].degenerate,
+                         d == 0 && start_at_truth ? ", started at the first ground-truth pose" : ", in the first scan's frame"));
+    nlohmann::json& dj = report["drives"][d];
+    dj["odometry"] = {{"median_ms", runs[d].median_ms}, {"degenerate", runs[d].degenerate}, {"deskew", runs[d].deskew}};
+    if (!truth[d].empty()) {
+      // The odometry's error as if it had started at the first ground-truth pose.
+      Trajectory from_truth;
+      from_truth.poses = runs[d].poses;
+      const Pose to_truth = truth[d][0] * runs[d].poses[0].inverse();
+      for (Pose& p : from_truth.poses) p = to_truth * p;
+      dj["mean_error_before_m"] = mean_error(from_truth.poses, truth[d]);
+    }
   }
-  odometry_out = placed;
+  report["odometry"] = {{"median_ms", runs[0].median_ms}, {"degenerate", runs[0].degenerate}, {"deskew", runs[0].deskew}};
+  std::vector<Trajectory> placed(n);
+  odometry_out.assign(n, {});
+  for (std::size_t d = 0; d < n; ++d) {
+    placed[d].poses = runs[d].poses;
+    odometry_out[d].poses = runs[d].poses;
+  }
   if (cfg.gps || cfg.loops) {
-    PoseGraph graph(placed.poses, information, gps_edges, ds.meta.vehicle.gps_lever_arm, cfg.graph);
+    std::vector<GraphDrive> chains(n);
+    for (std::size_t d = 0; d < n; ++d) {
+      chains[d].odometry = runs[d].poses;
+      chains[d].information = runs[d].information;
+      chains[d].gps = gps[d];
+      chains[d].lever_arm = drives[d]->meta.vehicle.gps_lever_arm;
+    }
+    PoseGraph graph(chains, cfg.graph);
     graph.optimize();
     if (cfg.gps) {
-      // The GPS fixes set the world frame: the map keeps the dataset's origin even without ground truth.
-      origin = ds.meta.origin;
-      if (ds.has_ground_truth()) {
-        Trajectory t = placed;
-        t.poses = graph.poses();
-        report["mean_error_gps_m"] = mean_error(t);
-      }
+      origin = drives[0]->meta.origin;  // the fixes set the world frame: the map keeps the first dataset's origin
+      for (std::size_t d = 0; d < n; ++d)
+        if (!truth[d].empty()) report["drives"][d]["mean_error_gps_m"] = mean_error(graph.poses(d), truth[d]);
     }
     if (cfg.loops) {
+      std::vector<std::vector<Eigen::Vector3f>> clouds;
+      for (DriveOdometry& r : runs)
+        for (auto& c : r.keyframe_clouds) clouds.push_back(std::move(c));
       const std::size_t keyframes = graph.keyframes().size();
-      const LoopReport lr = close_loops(graph, keyframe_clouds, cfg.loop,
+      const LoopReport lr = close_loops(graph, clouds, cfg.loop,
                                         [&](std::size_t done, std::size_t) { tell.progress("loop closure", done, keyframes); });
       tell.log(
           format_text("loop closure: %zu queries, proposed %zu by position and %zu by place; %zu accepted, %zu rejected; "
@@ -162,13 +237,35 @@ Trajectory lidar_poses(const Dataset& ds, const GloamConfig& cfg, const std::vec
                       lr.queries, lr.proposed_by_position, lr.proposed_by_descriptor, lr.accepted, lr.rejected,
                       lr.residual_before_m, lr.residual_after_m, lr.verify_ms / 1000.0));
       report["loops"] = loop_report_json(lr, graph);
+      // Loops from each drive to each drive (itself included), accepted ones.
+      for (std::size_t d = 0; d < n; ++d) report["drives"][d]["loops_to"] = std::vector<std::size_t>(n, 0);
+      for (const LoopRecord& l : lr.loops) {
+        if (!l.accepted) continue;
+        const std::size_t a = graph.drive_of(l.query), b = graph.drive_of(l.match);
+        report["drives"][a]["loops_to"][b] = report["drives"][a]["loops_to"][b].get<std::size_t>() + 1;
+        if (a != b) report["drives"][b]["loops_to"][a] = report["drives"][b]["loops_to"][a].get<std::size_t>() + 1;
+      }
     }
-    placed.poses = graph.poses();
-    // The odometry started in its own frame (the first scan's, with GPS): moved as a whole to start
-    // where the graph put the first scan, so that it lies over the map.
-    const Pose to_graph = placed.poses.front() * odometry_out.poses.front().inverse();
-    for (Pose& p : odometry_out.poses) p = to_graph * p;
+    for (std::size_t d = 0; d < n; ++d)
+      if (!graph.joined(d))
+        throw Error(drives[d]->dir + ": nothing joins this drive to the map: it has no GPS fixes" +
+                    std::string(cfg.gps ? "" : " in use (--gps)") + " and no loop closure " +
+                    (cfg.loops ? "was found to the other drives" : "was looked for (--loops)") +
+                    "; build it with a drive that passes the same places, or with its GPS");
     const PoseGraphReport r = graph.report();
+    for (std::size_t d = 0; d < n; ++d) {
+      placed[d].poses = graph.poses(d);
+      // The odometry started in its own frame: moved as a whole to start where the graph put the first scan.
+      const Pose to_graph = placed[d].poses.front() * odometry_out[d].poses.front().inverse();
+      for (Pose& p : odometry_out[d].poses) p = to_graph * p;
+      const PoseGraphDriveReport& dr = r.drives[d];
+      nlohmann::json& dj = report["drives"][d];
+      dj["keyframes"] = dr.keyframes;
+      dj["gps_edges"] = dr.gps_edges;
+      dj["gps_outliers"] = dr.gps_outliers;
+      dj["gps_rms_before_m"] = dr.gps_rms_before_m;
+      dj["gps_rms_after_m"] = dr.gps_rms_after_m;
+    }
     tell.log(
         format_text("pose graph: %zu keyframes, %zu GPS edges (%zu outliers), %zu loop edges, GPS residual RMS %.3f m -> %.3f m, "
                     "%d solves, %d iterations, %.0f ms (%s)",
@@ -177,11 +274,27 @@ Trajectory lidar_poses(const Dataset& ds, const GloamConfig& cfg, const std::vec
     report["pose_graph"] = graph_report_json(r);
   }
   const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-  report["trajectory_ms_per_scan"] = 1000.0 * total_s / static_cast<double>(ds.size());
-  tell.log(format_text("trajectory: %.1f ms a scan in all (odometry%s%s)", 1000.0 * total_s / static_cast<double>(ds.size()),
+  report["trajectory_ms_per_scan"] = 1000.0 * total_s / static_cast<double>(scans);
+  tell.log(format_text("trajectory: %.1f ms a scan in all (odometry%s%s)", 1000.0 * total_s / static_cast<double>(scans),
                        cfg.gps ? " + GPS" : "", cfg.loops ? " + loops" : ""));
-  if (ds.has_ground_truth()) report["mean_error_after_m"] = mean_error(placed);
   return placed;
+}
+
+// Which drives each tile's points came from: per tile (pl-map tile's default grid), its points and
+// the points each drive returned from.
+nlohmann::json tile_sources(const MapCloud& map, std::size_t drives) {
+  const TileGrid grid(ImportConfig{}.tile_size_m);
+  std::map<TileKey, std::pair<std::size_t, std::vector<std::size_t>>> tiles;
+  for (std::size_t i = 0; i < map.points.size(); ++i) {
+    auto& t = tiles[grid.key_of(map.points[i].x(), map.points[i].y())];
+    if (t.second.empty()) t.second.assign(drives, 0);
+    ++t.first;
+    for (std::size_t d = 0; d < drives && !map.drives.empty(); ++d)
+      if (map.drives[i] >> d & 1u) ++t.second[d];
+  }
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& [key, t] : tiles) out.push_back({{"tx", key.tx}, {"ty", key.ty}, {"points", t.first}, {"points_by_drive", t.second}});
+  return out;
 }
 
 }  // namespace
@@ -196,74 +309,134 @@ void check_gloam_config(const GloamConfig& cfg) {
   if (!(cfg.loop_voxel_m > 0)) throw Error("the loop-closure voxel must be above 0 m");
 }
 
-GloamResult build_gloam_map(const Dataset& ds, const GloamConfig& cfg, const GloamObserver& observer) {
+GloamResult build_gloam_map(const std::vector<const Dataset*>& drives, const GloamConfig& cfg, const GloamObserver& observer) {
   check_gloam_config(cfg);
   const Tell tell{observer};
-  if (ds.size() == 0) throw Error(ds.dir + ": no scans");
-  if (cfg.poses == PoseSource::GroundTruth && !ds.has_ground_truth())
-    throw Error(ds.dir + ": --poses gt needs ground-truth poses (poses.txt or OXTS)");
-  std::vector<GpsEdge> gps_edges;
-  if (cfg.gps) {
-    if (ds.gps.empty()) throw Error(ds.dir + ": --gps needs GPS fixes (gps.csv or OXTS), and the drive has none");
-    gps_edges = gps_edges_from_dataset(ds);  // throws when the fixes cannot be placed in the world frame
-    if (gps_edges.empty()) throw Error(ds.dir + ": no usable GPS fix (status other than none, within 0.05 s of a scan)");
+  if (drives.empty()) throw Error("a map needs at least one drive (--dataset)");
+  if (drives.size() > 64) throw Error(format_text("a map is built from at most 64 drives, not %zu", drives.size()));
+  const std::size_t n = drives.size();
+  if (n > 1 && cfg.poses == PoseSource::Lidar && !cfg.gps && !cfg.loops)
+    throw Error("several drives with --poses lidar need --gps or --loops: nothing else places the second drive (" +
+                drives[1]->dir + ") on the first");
+  // Each drive's world frame in the map's; its ground truth and fixes brought into it.
+  std::vector<std::optional<Pose>> frames(n);
+  std::vector<PoseList> truth(n);
+  std::vector<std::vector<GpsEdge>> gps(n);
+  for (std::size_t d = 0; d < n; ++d) {
+    const Dataset& ds = *drives[d];
+    if (ds.size() == 0) throw Error(ds.dir + ": no scans");
+    frames[d] = frame_in_map(ds, *drives[0]);
+    if (cfg.poses == PoseSource::GroundTruth) {
+      if (!ds.has_ground_truth()) throw Error(ds.dir + ": --poses gt needs ground-truth poses (poses.txt or OXTS)");
+      if (!frames[d])
+        throw Error(ds.dir + ": its ground truth cannot be placed in the map's frame (" + drives[0]->dir +
+                    "'s): one of the two has no geodetic origin; add \"origin\" {lat, lon, alt} to its meta.json");
+    }
+    if (ds.has_ground_truth() && frames[d])
+      for (const Pose& p : ds.ground_truth.poses) truth[d].push_back(*frames[d] * p);
+    if (cfg.gps) {
+      if (ds.gps.empty() && !(cfg.loops && n > 1))
+        throw Error(ds.dir + ": --gps needs GPS fixes (gps.csv or OXTS), and the drive has none" +
+                    std::string(n > 1 ? " (with --loops, a drive without GPS is joined by its loops)" : ""));
+      if (!ds.gps.empty()) {
+        if (!frames[d]) throw Error(ds.dir + ": its GPS fixes cannot be placed in the map's frame: " + drives[0]->dir + " has no geodetic origin");
+        gps[d] = gps_edges_from_dataset(ds);  // throws when the fixes cannot be placed in the world frame
+        for (GpsEdge& e : gps[d]) e.antenna_world = *frames[d] * e.antenna_world;
+        if (gps[d].empty()) throw Error(ds.dir + ": no usable GPS fix (status other than none, within 0.05 s of a scan)");
+      }
+    }
   }
   GloamResult result;
   nlohmann::json report;
-  report["dataset"] = ds.dir;
-  report["scans"] = ds.size();
+  report["dataset"] = drives[0]->dir;
+  std::size_t scans = 0;
+  for (const Dataset* ds : drives) scans += ds->size();
+  report["scans"] = scans;
   report["poses"] = cfg.poses == PoseSource::GroundTruth ? "gt" : "lidar";
-  result.origin = ds.meta.origin;
+  report["drives"] = nlohmann::json::array();
+  for (const Dataset* ds : drives) report["drives"].push_back({{"dataset", ds->dir}, {"scans", ds->size()}});
+  result.origin = drives[0]->meta.origin;
+  std::vector<Trajectory> poses(n), odometry(n);
   if (cfg.poses == PoseSource::GroundTruth)
-    result.poses = ds.ground_truth;
+    for (std::size_t d = 0; d < n; ++d) poses[d].poses = truth[d];
   else
-    result.poses = lidar_poses(ds, cfg, gps_edges, result.origin, report, tell, result.odometry);
-  result.poses.times = ds.times;
-  if (!result.odometry.poses.empty()) result.odometry.times = ds.times;
-  result.report_json = report.dump(2) + "\n";
+    poses = lidar_poses(drives, cfg, gps, truth, result.origin, report, tell, odometry);
+  // Errors against ground truth, per drive and over every scan.
+  double before = 0, after = 0;
+  std::size_t with_truth = 0;
+  for (std::size_t d = 0; d < n; ++d) {
+    poses[d].times = drives[d]->times;
+    if (!odometry[d].poses.empty()) odometry[d].times = drives[d]->times;
+    if (truth[d].empty() || cfg.poses == PoseSource::GroundTruth) continue;
+    const double e = mean_error(poses[d].poses, truth[d]);
+    report["drives"][d]["mean_error_after_m"] = e;
+    after += e * static_cast<double>(truth[d].size());
+    before += report["drives"][d].value("mean_error_before_m", 0.0) * static_cast<double>(truth[d].size());
+    with_truth += truth[d].size();
+  }
+  if (with_truth > 0) {
+    report["mean_error_before_m"] = before / static_cast<double>(with_truth);
+    report["mean_error_after_m"] = after / static_cast<double>(with_truth);
+    if (n == 1 && report["drives"][0].contains("mean_error_gps_m")) report["mean_error_gps_m"] = report["drives"][0]["mean_error_gps_m"];
+  }
   result.source = source_name(cfg);
 
-  result.merged_scans = (ds.size() + cfg.merge.every - 1) / cfg.merge.every;
+  std::vector<PlacedDrive> placed(n);
+  result.merged_scans = 0;
+  for (std::size_t d = 0; d < n; ++d) {
+    const Dataset& ds = *drives[d];
+    placed[d] = {&ds, &poses[d], merge_deskews(cfg, ds),
+                 ds.meta.sensor.rate_hz > 0 ? 1.0 / ds.meta.sensor.rate_hz : cfg.merge.sweep_s};
+    result.merged_scans += (ds.size() + cfg.merge.every - 1) / cfg.merge.every;
+  }
   result.voxel_m = cfg.merge.voxel_m;
   const std::size_t merged = result.merged_scans;
-  MapBuildConfig merge = cfg.merge;
-  // The merge corrects the sweep when told, or by itself for scans that carry their points' times
-  // (the sensor says it sweeps). Not for KITTI raw by default: on drive 0005 the azimuth-timed
-  // correction of map and scans did not make the localizer's error smaller (docs/benchmarks.md).
-  merge.deskew = cfg.deskew == Deskew::On || (cfg.deskew == Deskew::Auto && ds.has_point_times());
-  if (ds.meta.sensor.rate_hz > 0) merge.sweep_s = 1.0 / ds.meta.sensor.rate_hz;
-  result.map = build_map_from_poses(ds, result.poses, merge,
-                                    [&](std::size_t done, std::size_t) { tell.progress("merging scans", done, merged); });
+  result.map = build_map_from_drives(placed, cfg.merge, [&](std::size_t done, std::size_t) { tell.progress("merging scans", done, merged); });
+  if (n > 1) report["tiles"] = tile_sources(result.map, n);
+  result.report_json = report.dump(2) + "\n";
+  for (std::size_t d = 0; d < n; ++d) result.drives.push_back({drives[d]->dir, std::move(poses[d]), std::move(odometry[d])});
   return result;
 }
 
-std::string write_gloam_outputs(const GloamResult& r, const std::string& map_pcd, const std::string& trajectory,
-                                const std::string& report, const std::string& odometry) {
+GloamResult build_gloam_map(const Dataset& ds, const GloamConfig& cfg, const GloamObserver& observer) {
+  return build_gloam_map(std::vector<const Dataset*>{&ds}, cfg, observer);
+}
+
+std::string write_gloam_outputs(const GloamResult& r, const GloamOutputs& o) {
   std::string out;
+  const std::size_t n = r.drives.size();
+  auto per_drive = [&](const std::vector<std::string>& paths, const char* option) {
+    if (!paths.empty() && paths.size() != n)
+      throw Error(format_text("%s: %zu given for %zu drives (one per --dataset, in the same order)", option, paths.size(), n));
+  };
+  per_drive(o.trajectories, "--traj-out");
+  per_drive(o.odometry, "--odometry-out");
   // KITTI, or TUM with the scan times when the name ends in .tum.
   auto write_poses = [](const std::string& path, const Trajectory& t) {
     const bool tum = path.size() > 4 && path.compare(path.size() - 4, 4, ".tum") == 0;
     write_trajectory(path, t, tum ? PoseFormat::Tum : PoseFormat::Kitti);
   };
-  if (!odometry.empty()) {
-    if (r.odometry.poses.empty()) throw Error("--odometry-out needs --poses lidar (with --poses gt no odometry runs)");
-    write_poses(odometry, r.odometry);
-    out += format_text("wrote %s: %zu LiDAR poses (lidar odometry, before any pose graph), one per scan\n", odometry.c_str(),
-                       r.odometry.poses.size());
+  for (std::size_t d = 0; d < o.odometry.size(); ++d) {
+    if (r.drives[d].odometry.poses.empty()) throw Error("--odometry-out needs --poses lidar (with --poses gt no odometry runs)");
+    write_poses(o.odometry[d], r.drives[d].odometry);
+    out += format_text("wrote %s: %zu LiDAR poses (lidar odometry, before any pose graph), one per scan\n", o.odometry[d].c_str(),
+                       r.drives[d].odometry.poses.size());
   }
-  if (!report.empty()) {
-    std::ofstream f(report);
+  if (!o.report.empty()) {
+    std::ofstream f(o.report);
     f << r.report_json;
-    if (!f) throw Error(report + ": cannot write the report");
-    out += "wrote " + report + "\n";
+    if (!f) throw Error(o.report + ": cannot write the report");
+    out += "wrote " + o.report + "\n";
   }
-  if (!trajectory.empty()) {
-    write_poses(trajectory, r.poses);
-    out += format_text("wrote %s: %zu LiDAR poses (%s), one per scan\n", trajectory.c_str(), r.poses.size(), r.source.c_str());
+  for (std::size_t d = 0; d < o.trajectories.size(); ++d) {
+    write_poses(o.trajectories[d], r.drives[d].poses);
+    out += format_text("wrote %s: %zu LiDAR poses (%s), one per scan\n", o.trajectories[d].c_str(), r.drives[d].poses.size(),
+                       r.source.c_str());
   }
+  const std::string& map_pcd = o.map_pcd;
   write_pcd(map_pcd, r.map.points, r.map.intensity, r.origin);
-  out += format_text("wrote %s: %zu points from %zu scans at %.2f m voxels\n", map_pcd.c_str(), r.map.points.size(),
-                     r.merged_scans, r.voxel_m);
+  out += format_text("wrote %s: %zu points from %zu scans%s at %.2f m voxels\n", map_pcd.c_str(), r.map.points.size(),
+                     r.merged_scans, n > 1 ? format_text(" of %zu drives", n).c_str() : "", r.voxel_m);
   if (!r.map.places.empty()) {
     const std::string path = places_path(map_pcd);
     const std::string bytes = r.map.places.encode();

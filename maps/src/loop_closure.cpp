@@ -35,16 +35,16 @@ struct LocalMap {
   std::vector<Eigen::Vector3f> normals;
 };
 
-LocalMap local_map(const PoseList& estimate,
-                                       const std::vector<double>& path, const std::vector<std::vector<Eigen::Vector3f>>& clouds,
-                                       std::size_t center, const LoopClosureConfig& cfg) {
+// `begin`..`end`: the keyframes of the center's drive.
+LocalMap local_map(const PoseList& estimate, const std::vector<double>& path, const std::vector<std::vector<Eigen::Vector3f>>& clouds,
+                   std::size_t center, std::size_t begin, std::size_t end, const LoopClosureConfig& cfg) {
   VoxelAccumulator acc(cfg.target_voxel_m);
   const Pose to_center = estimate[center].inverse();
-  for (std::size_t m = center; m-- > 0 && path[center] - path[m] <= cfg.submap_m;) {
+  for (std::size_t m = center; m-- > begin && path[center] - path[m] <= cfg.submap_m;) {
     const Pose rel = to_center * estimate[m];
     for (const Eigen::Vector3f& p : clouds[m]) acc.add(rel * p.cast<double>(), 0.0f);
   }
-  for (std::size_t m = center; m < clouds.size() && path[m] - path[center] <= cfg.submap_m; ++m) {
+  for (std::size_t m = center; m < end && path[m] - path[center] <= cfg.submap_m; ++m) {
     const Pose rel = to_center * estimate[m];
     for (const Eigen::Vector3f& p : clouds[m]) acc.add(rel * p.cast<double>(), 0.0f);
   }
@@ -94,10 +94,17 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
   LoopReport rep;
   if (n == 0) return rep;
 
-  // Path length along the odometry to each keyframe, the descriptors, and the estimate.
+  // Path length along each drive's odometry to each keyframe, the descriptors, and the estimate.
+  const std::size_t drives = graph.drives();
+  std::vector<std::size_t> drive(n), begin(n), end(n);  // per keyframe: its drive and the drive's keyframes
+  for (std::size_t d = 0; d < drives; ++d) {
+    const std::size_t b = graph.first_keyframe(d), e = d + 1 < drives ? graph.first_keyframe(d + 1) : n;
+    for (std::size_t k = b; k < e; ++k) drive[k] = d, begin[k] = b, end[k] = e;
+  }
   std::vector<double> path(n, 0.0);
   for (std::size_t k = 1; k < n; ++k)
-    path[k] = path[k - 1] + (graph.odometry_pose(k).translation() - graph.odometry_pose(k - 1).translation()).norm();
+    if (drive[k] == drive[k - 1])
+      path[k] = path[k - 1] + (graph.odometry_pose(k).translation() - graph.odometry_pose(k - 1).translation()).norm();
   std::vector<PlaceDescriptor> descriptors(n);
   for (std::size_t k = 0; k < n; ++k) descriptors[k] = make_place_descriptor(clouds[k], cfg.descriptor);
   PoseList estimate(n);
@@ -106,6 +113,8 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
   };
   refresh();
   const PoseList before = estimate;
+  std::vector<bool> tied_before(drives);  // drives whose estimate `before` places on the map
+  for (std::size_t d = 0; d < drives; ++d) tied_before[d] = graph.joined(d);
 
   registration::IcpConfig icp;
   icp.max_pair_m = 0.5;
@@ -116,17 +125,27 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
   struct Accepted {
     std::size_t a, b;
     Pose z;
+    bool floating;  // between drives not both on the map before loops: no residual before
   };
   std::vector<Accepted> accepted;
   double next_query = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     if (progress) progress(i + 1, n);
-    if (path[i] < next_query || path[i] < cfg.min_separation_m) continue;
-    // Eligible matches: 0 .. last, at least min_separation_m of path behind.
-    const std::size_t last =
-        static_cast<std::size_t>(std::upper_bound(path.begin(), path.begin() + static_cast<long>(i), path[i] - cfg.min_separation_m) -
-                                 path.begin());
-    if (last == 0) continue;
+    if (i > 0 && drive[i] != drive[i - 1]) next_query = 0.0;
+    if (path[i] < next_query) continue;
+    // Eligible matches: the keyframes of earlier drives, and this drive's at least min_separation_m
+    // of path behind. Between a drive tied to the map and a floating one, only a proposal by place
+    // means anything (the floating drive's estimate is in its own frame); two floating drives wait.
+    const bool here_joined = graph.joined(drive[i]);
+    std::vector<std::size_t> eligible;
+    for (std::size_t j = 0; j < begin[i]; ++j)
+      if (here_joined || graph.joined(drive[j])) eligible.push_back(j);
+    if (path[i] >= cfg.min_separation_m && here_joined) {
+      const auto last = std::upper_bound(path.begin() + static_cast<long>(begin[i]), path.begin() + static_cast<long>(i),
+                                         path[i] - cfg.min_separation_m);
+      for (std::size_t j = begin[i]; j < static_cast<std::size_t>(last - path.begin()); ++j) eligible.push_back(j);
+    }
+    if (eligible.empty()) continue;
     ++rep.queries;
 
     struct Proposal {
@@ -136,10 +155,11 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
       Pose guess;  // the query's pose in the match's frame
     };
     std::vector<Proposal> proposals;
-    // By position.
+    // By position, among keyframes whose estimate shares the query's frame.
     std::size_t nearest = n;
     double nearest_d = cfg.position_radius_m;
-    for (std::size_t j = 0; j < last; ++j) {
+    for (std::size_t j : eligible) {
+      if (!here_joined || !graph.joined(drive[j])) continue;
       const double d = (estimate[j].translation() - estimate[i].translation()).head<2>().norm();
       if (d <= nearest_d) nearest_d = d, nearest = j;
     }
@@ -148,7 +168,7 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
     // may have drifted so far that the nearest keyframe in it is not the one revisited).
     if (cfg.descriptor_candidates > 0) {
       std::vector<std::pair<double, std::size_t>> keyed;
-      for (std::size_t j = 0; j < last; ++j) keyed.push_back({ring_key_distance(descriptors[i], descriptors[j]), j});
+      for (std::size_t j : eligible) keyed.push_back({ring_key_distance(descriptors[i], descriptors[j]), j});
       const std::size_t take = std::min<std::size_t>(keyed.size(), static_cast<std::size_t>(cfg.descriptor_candidates));
       std::partial_sort(keyed.begin(), keyed.begin() + static_cast<long>(take), keyed.end());
       DescriptorMatch best;
@@ -158,9 +178,10 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
         if (m.distance < best.distance) best = m, best_j = keyed[c].second;
       }
       if (best_j < n && best.distance <= cfg.descriptor_max_distance) {
-        // Same place, turned by the descriptor's heading; height from the estimate.
+        // Same place, turned by the descriptor's heading; height from the estimate (of a drive tied
+        // to the map; a floating drive's height is its own: the search's ICP finds it).
         Pose guess = estimate[best_j].inverse() * estimate[i];
-        guess.translation() = Eigen::Vector3d(0, 0, guess.translation().z());
+        guess.translation() = Eigen::Vector3d(0, 0, graph.joined(drive[best_j]) && here_joined ? guess.translation().z() : 0.0);
         guess.linear() = Eigen::AngleAxisd(best.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
         proposals.push_back({best_j, true, best.distance, guess});
       }
@@ -175,7 +196,7 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
       rec.match = p.match;
       rec.by_descriptor = p.by_descriptor;
       rec.descriptor_distance = p.descriptor_distance;
-      const LocalMap local = local_map(estimate, path, clouds, p.match, cfg);
+      const LocalMap local = local_map(estimate, path, clouds, p.match, begin[p.match], end[p.match], cfg);
       const auto fine = point_map(local, kFineCellM, Eigen::Vector3d::Zero());
       registration::IcpResult r;
       bool registered = false;
@@ -223,14 +244,22 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
         continue;
       }
       // Trial: the edge goes in and the graph is re-solved; it stays only if the graph can take it in.
+      // A loop between a floating drive and the map first moves the floating drive onto it.
       const std::vector<double> saved = graph.save();
       const double gps_before = graph.gps_cost();
+      const bool joining = !graph.joined(drive[i]) || !graph.joined(drive[p.match]);
+      if (!graph.joined(drive[i]))
+        graph.join_drive(drive[i], estimate[p.match] * r.pose * estimate[i].inverse());
+      else if (!graph.joined(drive[p.match]))
+        graph.join_drive(drive[p.match], estimate[i] * r.pose.inverse() * estimate[p.match].inverse());
+      if (joining) refresh();
       const std::size_t id = graph.add_loop(p.match, i, r.pose, edge_information(r, cfg));
       graph.optimize(cfg.solve_iterations);
       refresh();
       const double residual = ((estimate[p.match].inverse() * estimate[i]).inverse() * r.pose).translation().norm();
       const double gps_rise = graph.gps_cost() - gps_before;
-      if (residual > cfg.max_residual_m || gps_rise > cfg.max_gps_cost_rise) {
+      // (A joining loop is the floating drive's only tie: nothing in the graph can disagree with it.)
+      if (!joining && (residual > cfg.max_residual_m || gps_rise > cfg.max_gps_cost_rise)) {
         graph.remove_loop(id);
         graph.restore(saved);
         refresh();
@@ -242,7 +271,7 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
         continue;
       }
       ++rep.accepted;
-      accepted.push_back({p.match, i, r.pose});
+      accepted.push_back({p.match, i, r.pose, !tied_before[drive[i]] || !tied_before[drive[p.match]]});
       next_query = path[i] + cfg.cooldown_m;
       break;
     }
@@ -253,7 +282,7 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
   }
   std::vector<double> res_before, res_after;
   for (const Accepted& a : accepted) {
-    res_before.push_back(((before[a.a].inverse() * before[a.b]).inverse() * a.z).translation().norm());
+    if (!a.floating) res_before.push_back(((before[a.a].inverse() * before[a.b]).inverse() * a.z).translation().norm());
     res_after.push_back(((estimate[a.a].inverse() * estimate[a.b]).inverse() * a.z).translation().norm());
   }
   rep.residual_before_m = res_before.empty() ? 0.0 : median(res_before);

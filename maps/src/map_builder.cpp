@@ -32,7 +32,12 @@ void deskew(Scan& scan, const std::vector<float>& times, const Trajectory& poses
   if (a == b || poses.times.size() != poses.size()) return;
   const double dt = poses.times[b] - poses.times[a];
   if (!(dt > 0)) return;
-  const Eigen::Isometry3d sweep = scale_motion(poses.poses[a].inverse() * poses.poses[b], sweep_s / dt);
+  compensate_sweep(scan, times, scale_motion(poses.poses[a].inverse() * poses.poses[b], sweep_s / dt), sweep_s);
+}
+
+}  // namespace
+
+void compensate_sweep(Scan& scan, const std::vector<float>& times, const Pose& sweep, double sweep_s) {
   std::vector<Eigen::Vector3f> points = to_points(scan);
   std::vector<float> shares;
   if (times.size() == scan.size())
@@ -40,8 +45,6 @@ void deskew(Scan& scan, const std::vector<float>& times, const Trajectory& poses
   registration::compensate_motion(points, sweep, shares);
   for (std::size_t k = 0; k < scan.size(); ++k) scan[k].x = points[k].x(), scan[k].y = points[k].y(), scan[k].z = points[k].z();
 }
-
-}  // namespace
 
 VoxelAccumulator::VoxelAccumulator(double voxel) : inv_(1.0 / voxel) {
   if (!(voxel > 0.0)) throw Error("voxel size must be a positive number of metres");
@@ -58,6 +61,30 @@ void VoxelAccumulator::add(const Eigen::Vector3d& p, float intensity) {
   }
 }
 
+void VoxelAccumulator::add(const Eigen::Vector3d& p, float intensity, std::uint32_t scan, unsigned drive) {
+  auto [it, fresh] = index_.try_emplace(voxel_index(p, inv_), static_cast<std::uint32_t>(sums_.size()));
+  if (fresh) sums_.push_back({p.x(), p.y(), p.z(), intensity, 1});
+  else {
+    Sum& s = sums_[it->second];
+    s.x += p.x(), s.y += p.y(), s.z += p.z(), s.i += intensity, ++s.n;
+  }
+  Sum& s = sums_[it->second];
+  if (s.last_scan != scan) s.last_scan = scan, ++s.scans;
+  s.drives |= std::uint64_t{1} << (drive & 63u);
+}
+
+std::vector<std::uint32_t> VoxelAccumulator::scans() const {
+  std::vector<std::uint32_t> out(sums_.size());
+  for (std::size_t i = 0; i < sums_.size(); ++i) out[i] = sums_[i].scans;
+  return out;
+}
+
+std::vector<std::uint64_t> VoxelAccumulator::drives() const {
+  std::vector<std::uint64_t> out(sums_.size());
+  for (std::size_t i = 0; i < sums_.size(); ++i) out[i] = sums_[i].drives;
+  return out;
+}
+
 Points3d VoxelAccumulator::centroids(std::vector<float>& intensity) const {
   Points3d out(sums_.size());
   intensity.resize(sums_.size());
@@ -69,35 +96,89 @@ Points3d VoxelAccumulator::centroids(std::vector<float>& intensity) const {
   return out;
 }
 
-MapCloud build_map_from_poses(const Dataset& ds, const Trajectory& poses, const MapBuildConfig& cfg,
-                              const std::function<void(std::size_t, std::size_t)>& progress) {
-  if (poses.size() != ds.size())
-    throw Error("the map needs one pose per scan: " + std::to_string(poses.size()) + " poses for " + std::to_string(ds.size()) + " scans");
+void MapCloud::keep_only(const std::vector<bool>& keep) {
+  if (keep.size() != points.size()) throw Error("MapCloud::keep_only: one flag per point expected");
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!keep[i]) continue;
+    points[out] = points[i];
+    if (!intensity.empty()) intensity[out] = intensity[i];
+    if (!seen.empty()) seen[out] = seen[i];
+    if (!drives.empty()) drives[out] = drives[i];
+    ++out;
+  }
+  points.resize(out);
+  if (!intensity.empty()) intensity.resize(out);
+  if (!seen.empty()) seen.resize(out);
+  if (!drives.empty()) drives.resize(out);
+}
+
+namespace {
+
+// The scans of each drive that the merge takes (cfg.first, last, every), loaded, corrected and cropped.
+void visit_scans(const std::vector<PlacedDrive>& drives, const MapBuildConfig& cfg, const std::function<void(std::size_t)>& count,
+                 const std::function<void(std::size_t, std::size_t, const Pose&, const Scan&)>& visit) {
   if (cfg.every == 0) throw Error("every must be at least 1");
+  if (drives.size() > 64) throw Error("a map is built from at most 64 drives, not " + std::to_string(drives.size()));
+  std::size_t total = 0;
+  for (const PlacedDrive& d : drives) {
+    if (d.poses->size() != d.dataset->size())
+      throw Error("the map needs one pose per scan: " + std::to_string(d.poses->size()) + " poses for " +
+                  std::to_string(d.dataset->size()) + " scans of " + d.dataset->dir);
+    const std::size_t n = d.dataset->size();
+    const std::size_t last = std::min(cfg.last, n == 0 ? 0 : n - 1);
+    if (n > 0 && last >= cfg.first) total += (last - cfg.first) / cfg.every + 1;
+  }
+  if (count) count(total);
+  for (std::size_t k = 0; k < drives.size(); ++k) {
+    const Dataset& ds = *drives[k].dataset;
+    const Trajectory& poses = *drives[k].poses;
+    ScanPrepConfig prep = cfg.scan;
+    prep.sensor_beams = ds.meta.sensor.beams;
+    prep.voxel_m = 0.0;  // the accumulator voxelizes, exactly, in the world frame
+    const std::size_t last = std::min(cfg.last, ds.size() == 0 ? 0 : ds.size() - 1);
+    for (std::size_t i = cfg.first; i <= last && i < ds.size(); i += cfg.every) {
+      Frame frame = ds.load_frame(i, prep.beams > 0 && prep.beams < prep.sensor_beams);
+      if (drives[k].deskew) deskew(frame.scan, frame.times, poses, i, drives[k].sweep_s);  // before points are dropped
+      visit(k, i, poses.poses[i], prepare_scan(frame.scan, frame.rings, prep));
+    }
+  }
+}
+
+}  // namespace
+
+MapCloud build_map_from_drives(const std::vector<PlacedDrive>& drives, const MapBuildConfig& cfg,
+                               const std::function<void(std::size_t, std::size_t)>& progress) {
   VoxelAccumulator acc(cfg.voxel_m);
   std::vector<registration::Place> places;
-  ScanPrepConfig prep = cfg.scan;
-  prep.sensor_beams = ds.meta.sensor.beams;
-  prep.voxel_m = 0.0;  // the accumulator voxelizes, exactly, in the world frame
-  std::size_t last = std::min(cfg.last, ds.size() == 0 ? 0 : ds.size() - 1);
-  std::size_t total = last >= cfg.first ? (last - cfg.first) / cfg.every + 1 : 0, done = 0;
-  for (std::size_t i = cfg.first; i <= last && i < ds.size(); i += cfg.every) {
-    Frame frame = ds.load_frame(i, prep.beams > 0 && prep.beams < prep.sensor_beams);
-    if (cfg.deskew) deskew(frame.scan, frame.times, poses, i, cfg.sweep_s);  // before points are dropped: one time per point
-    Scan kept = prepare_scan(frame.scan, frame.rings, prep);
-    const Pose& pose = poses.poses[i];
-    for (const auto& p : kept) acc.add(pose * Eigen::Vector3d(p.x, p.y, p.z), p.intensity);
-    if (cfg.place_spacing_m > 0 &&
-        (places.empty() || (places.back().position - pose.translation()).norm() >= cfg.place_spacing_m))
-      places.push_back(place_of(kept, pose, cfg.place));
-    if (progress) progress(++done, total);
-  }
+  std::size_t total = 0, done = 0;
+  std::uint32_t scan = 0;
+  visit_scans(drives, cfg, [&](std::size_t t) { total = t; },
+              [&](std::size_t drive, std::size_t, const Pose& pose, const Scan& kept) {
+                ++scan;
+                for (const auto& p : kept) acc.add(pose * Eigen::Vector3d(p.x, p.y, p.z), p.intensity, scan, static_cast<unsigned>(drive));
+                if (cfg.place_spacing_m > 0 &&
+                    (places.empty() || (places.back().position - pose.translation()).norm() >= cfg.place_spacing_m))
+                  places.push_back(place_of(kept, pose, cfg.place));
+                if (progress) progress(++done, total);
+              });
   MapCloud out;
   out.points = acc.centroids(out.intensity);
+  out.seen = acc.scans();
+  out.drives = acc.drives();
   out.places = registration::PlaceIndex(cfg.place, std::move(places));
   return out;
 }
 
+void for_each_merged_scan(const std::vector<PlacedDrive>& drives, const MapBuildConfig& cfg,
+                          const std::function<void(std::size_t, std::size_t, const Pose&, const Scan&)>& visit) {
+  visit_scans(drives, cfg, {}, visit);
+}
+
+MapCloud build_map_from_poses(const Dataset& ds, const Trajectory& poses, const MapBuildConfig& cfg,
+                              const std::function<void(std::size_t, std::size_t)>& progress) {
+  return build_map_from_drives({{&ds, &poses, cfg.deskew, cfg.sweep_s}}, cfg, progress);
+}
 
 std::map<TileKey, TileCloud> cut_into_tiles(const Points3d& points, const std::vector<Eigen::Vector3f>& normals,
                                             const std::vector<float>& intensity, const TileGrid& grid) {

@@ -155,8 +155,15 @@ bool is_new_keyframe(const Pose& last, const Pose& pose, const PoseGraphConfig& 
 
 struct PoseGraph::Impl {
   PoseGraphConfig cfg;
-  PoseList odometry;                       // one per scan, as given
-  std::vector<std::size_t> keyframes, owner;  // keyframe scans; the keyframe each scan hangs from
+  struct Drive {
+    PoseList odometry;                // one per scan, as given
+    std::vector<std::size_t> owner;   // per scan: the keyframe (graph-wide) it hangs from
+    std::size_t first = 0, end = 0;   // its keyframes
+    bool fixed = false, joined = false, held = false;  // held: its first keyframe constant until joined
+    std::size_t gps_begin = 0, gps_end = 0;  // its fixes in `fixes`
+  };
+  std::vector<Drive> drives;
+  std::vector<std::size_t> keyframes, keyframe_drive;  // per keyframe: its scan within its drive, its drive
   PoseList keyframe_odometry;
   std::vector<Node> nodes;                 // the estimate (stable addresses: Ceres holds pointers)
   std::vector<GpsOnKeyframe> fixes;
@@ -164,66 +171,128 @@ struct PoseGraph::Impl {
   std::vector<ceres::ResidualBlockId> loops;  // nullptr once removed
   std::vector<ceres::ResidualBlockId> gps_blocks;
   PoseGraphReport rep;
+
+  void hold(std::size_t k, bool constant) {
+    if (constant) problem.SetParameterBlockConstant(nodes[k].t), problem.SetParameterBlockConstant(nodes[k].q);
+    else problem.SetParameterBlockVariable(nodes[k].t), problem.SetParameterBlockVariable(nodes[k].q);
+  }
 };
+
+namespace {
+
+std::vector<GraphDrive> one_drive(const PoseList& odometry_poses, const std::vector<Information6>& information,
+                                  const std::vector<GpsEdge>& gps, const Eigen::Vector3d& lever_arm) {
+  std::vector<GraphDrive> d(1);
+  d[0].odometry = odometry_poses;
+  d[0].information = information;
+  d[0].gps = gps;
+  d[0].lever_arm = lever_arm;
+  return d;
+}
+
+}  // namespace
 
 PoseGraph::PoseGraph(const PoseList& odometry_poses, const std::vector<Information6>& information, const std::vector<GpsEdge>& gps,
                      const Eigen::Vector3d& lever_arm, const PoseGraphConfig& cfg)
-    : impl_(std::make_unique<Impl>()) {
+    : PoseGraph(one_drive(odometry_poses, information, gps, lever_arm), cfg) {}
+
+PoseGraph::PoseGraph(const std::vector<GraphDrive>& input, const PoseGraphConfig& cfg) : impl_(std::make_unique<Impl>()) {
   Impl& g = *impl_;
   g.cfg = cfg;
-  g.odometry = odometry_poses;
-  const std::size_t n = odometry_poses.size();
-  if (!information.empty() && information.size() != n)
-    throw Error("pose graph: " + std::to_string(information.size()) + " information matrices for " + std::to_string(n) + " poses");
-  for (const GpsEdge& e : gps)
-    if (e.scan >= n) throw Error("pose graph: a GPS edge names scan " + std::to_string(e.scan) + " of " + std::to_string(n));
   g.rep.termination = "skipped";
-  if (n == 0) return;
+  for (std::size_t d = 0; d < input.size(); ++d) {
+    const GraphDrive& in = input[d];
+    const std::string which = input.size() > 1 ? " of drive " + std::to_string(d + 1) : "";
+    const std::size_t n = in.odometry.size();
+    if (!in.information.empty() && in.information.size() != n)
+      throw Error("pose graph: " + std::to_string(in.information.size()) + " information matrices for " + std::to_string(n) +
+                  " poses" + which);
+    for (const GpsEdge& e : in.gps)
+      if (e.scan >= n) throw Error("pose graph: a GPS edge names scan " + std::to_string(e.scan) + " of " + std::to_string(n) + which);
+  }
 
-  // Keyframes, and for every scan the keyframe it hangs from.
-  g.keyframes = {0};
-  g.owner.assign(n, 0);
-  for (std::size_t i = 1; i < n; ++i) {
-    if (is_new_keyframe(odometry_poses[g.keyframes.back()], odometry_poses[i], cfg)) g.keyframes.push_back(i);
-    g.owner[i] = g.keyframes.size() - 1;
+  // Keyframes of each drive, and for every scan the keyframe it hangs from; GPS edges onto them.
+  for (const GraphDrive& in : input) {
+    Impl::Drive dr;
+    dr.odometry = in.odometry;
+    dr.fixed = in.fixed;
+    dr.first = dr.end = g.keyframes.size();
+    dr.gps_begin = dr.gps_end = g.fixes.size();
+    const std::size_t n = in.odometry.size();
+    if (n > 0) {
+      const std::size_t d = g.drives.size();
+      std::size_t last = 0;
+      g.keyframes.push_back(0), g.keyframe_drive.push_back(d);
+      dr.owner.assign(n, dr.first);
+      for (std::size_t i = 1; i < n; ++i) {
+        if (is_new_keyframe(in.odometry[last], in.odometry[i], cfg)) {
+          last = i;
+          g.keyframes.push_back(i), g.keyframe_drive.push_back(d);
+        }
+        dr.owner[i] = g.keyframes.size() - 1;
+      }
+      dr.end = g.keyframes.size();
+      for (std::size_t k = dr.first; k < dr.end; ++k) g.keyframe_odometry.push_back(in.odometry[g.keyframes[k]]);
+      for (const GpsEdge& e : in.gps) {
+        if (e.status == kGpsNone || in.fixed) continue;
+        const std::size_t i = e.scan;
+        Eigen::Vector3d p = in.lever_arm;  // the antenna at the fix's time, in its keyframe's frame
+        if (e.fraction > 0 && i + 1 < n) {
+          const Pose at = interpolate(in.odometry[i], in.odometry[i + 1], std::min(e.fraction, 1.0));
+          p = in.odometry[i].inverse() * (at * in.lever_arm);
+        }
+        const std::size_t k = dr.owner[i];
+        const Pose offset = in.odometry[g.keyframes[k]].inverse() * in.odometry[i];
+        const double s = gps_sigma(e, cfg);
+        g.fixes.push_back({k, offset * p, e.antenna_world, Eigen::Vector3d(s, s, s * cfg.gps_vertical_factor)});
+      }
+      dr.gps_end = g.fixes.size();
+    }
+    g.drives.push_back(std::move(dr));
   }
   g.rep.keyframes = g.keyframes.size();
-  g.nodes.resize(g.keyframes.size());
-  for (std::size_t k = 0; k < g.keyframes.size(); ++k) {
-    g.keyframe_odometry.push_back(odometry_poses[g.keyframes[k]]);
-    g.nodes[k] = node_from(odometry_poses[g.keyframes[k]]);
-  }
-
-  // GPS edges onto keyframes: the antenna at the fix's time as a point in its keyframe's frame.
-  for (const GpsEdge& e : gps) {
-    if (e.status == kGpsNone) continue;
-    const std::size_t i = e.scan;
-    Eigen::Vector3d p = lever_arm;
-    if (e.fraction > 0 && i + 1 < n) {
-      const Pose at = interpolate(odometry_poses[i], odometry_poses[i + 1], std::min(e.fraction, 1.0));
-      p = odometry_poses[i].inverse() * (at * lever_arm);
-    }
-    const std::size_t k = g.owner[i];
-    const Pose offset = odometry_poses[g.keyframes[k]].inverse() * odometry_poses[i];
-    const double s = gps_sigma(e, cfg);
-    g.fixes.push_back({k, offset * p, e.antenna_world, Eigen::Vector3d(s, s, s * cfg.gps_vertical_factor)});
-  }
   g.rep.gps_edges = g.fixes.size();
-  if (!g.fixes.empty()) {
-    const Pose a = align_to_gps(g.nodes, g.fixes);
-    for (Node& node : g.nodes) node = node_from(a * pose_from(node));
+  if (g.keyframes.empty()) return;
+  g.nodes.resize(g.keyframes.size());
+  for (std::size_t k = 0; k < g.keyframes.size(); ++k) g.nodes[k] = node_from(g.keyframe_odometry[k]);
+
+  // Each drive with fixes aligned to them (yaw and translation).
+  for (Impl::Drive& dr : g.drives) {
+    if (dr.gps_begin == dr.gps_end) continue;
+    const std::vector<GpsOnKeyframe> own(g.fixes.begin() + static_cast<long>(dr.gps_begin), g.fixes.begin() + static_cast<long>(dr.gps_end));
+    const Pose a = align_to_gps(g.nodes, own);
+    for (std::size_t k = dr.first; k < dr.end; ++k) g.nodes[k] = node_from(a * pose_from(g.nodes[k]));
   }
 
   for (Node& node : g.nodes) {
     g.problem.AddParameterBlock(node.t, 3);
     g.problem.AddParameterBlock(node.q, 4, new ceres::EigenQuaternionManifold);
   }
-  if (g.fixes.empty()) {
-    g.problem.SetParameterBlockConstant(g.nodes[0].t), g.problem.SetParameterBlockConstant(g.nodes[0].q);
-  } else if (cfg.tilt_prior_deg > 0) {
-    const Eigen::Vector3d up_body = pose_from(g.nodes[0]).linear().transpose() * Eigen::Vector3d::UnitZ();
-    g.problem.AddResidualBlock(new ceres::AutoDiffCostFunction<TiltResidual, 3, 4>(new TiltResidual{up_body, 1.0 / (cfg.tilt_prior_deg * kDeg)}),
-                               nullptr, g.nodes[0].q);
+  // What holds the frame: fixed drives, else the fixes, else the first drive's first keyframe. A
+  // drive tied by none of these floats, its first keyframe held, until a loop joins it.
+  bool anchored = false;
+  for (const Impl::Drive& dr : g.drives) anchored = anchored || dr.fixed || dr.gps_end > dr.gps_begin;
+  for (std::size_t d = 0; d < g.drives.size(); ++d) {
+    Impl::Drive& dr = g.drives[d];
+    if (dr.first == dr.end) continue;
+    const bool has_gps = dr.gps_end > dr.gps_begin;
+    if (dr.fixed) {
+      for (std::size_t k = dr.first; k < dr.end; ++k) g.hold(k, true);
+      dr.joined = true;
+    } else if (has_gps) {
+      dr.joined = true;
+      if (cfg.tilt_prior_deg > 0) {
+        const Eigen::Vector3d up_body = pose_from(g.nodes[dr.first]).linear().transpose() * Eigen::Vector3d::UnitZ();
+        g.problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<TiltResidual, 3, 4>(new TiltResidual{up_body, 1.0 / (cfg.tilt_prior_deg * kDeg)}), nullptr,
+            g.nodes[dr.first].q);
+      }
+    } else {
+      g.hold(dr.first, true);
+      dr.held = true;
+      dr.joined = !anchored && !g.drives.empty() && d == 0;  // the frame's own drive
+      if (dr.joined) anchored = true;
+    }
   }
 
   // Odometry edges: per-scan covariances summed along the edge, plus the drift floor.
@@ -231,26 +300,31 @@ PoseGraph::PoseGraph(const PoseList& odometry_poses, const std::vector<Informati
   fallback.diagonal() << Eigen::Vector3d::Constant(1.0 / (cfg.fallback_sigma_m * cfg.fallback_sigma_m)),
       Eigen::Vector3d::Constant(1.0 / std::pow(cfg.fallback_sigma_deg * kDeg, 2));
   const double info_scale = 1.0 / (cfg.odometry_sigma_m * cfg.odometry_sigma_m);
-  for (std::size_t k = 1; k < g.keyframes.size(); ++k) {
-    const std::size_t a = g.keyframes[k - 1], b = g.keyframes[k];
-    const Pose z = odometry_poses[a].inverse() * odometry_poses[b];
-    Information6 cov = Information6::Zero();
-    if (!information.empty())
-      for (std::size_t i = a + 1; i <= b; ++i) {
-        Information6 info = information[i] * info_scale + fallback;
-        info = 0.5 * (info + info.transpose());
-        cov += info.ldlt().solve(Information6::Identity());
-      }
-    const double len = z.translation().norm();
-    const double st = std::max(cfg.min_drift_ratio * len, 1e-4), sr = std::max(cfg.min_drift_deg_per_m * kDeg * len, 1e-6);
-    cov.diagonal() += (Eigen::Matrix<double, 6, 1>() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr).finished();
-    cov = 0.5 * (cov + cov.transpose());
-    Information6 info = cov.ldlt().solve(Information6::Identity());
-    info = 0.5 * (info + info.transpose());
-    Eigen::LLT<Information6> llt(info);
-    auto* f = new OdometryResidual{z.translation(), Eigen::Quaterniond(z.linear()).normalized(), llt.matrixU()};
-    g.problem.AddResidualBlock(new ceres::AutoDiffCostFunction<OdometryResidual, 6, 3, 4, 3, 4>(f), nullptr, g.nodes[k - 1].t,
-                               g.nodes[k - 1].q, g.nodes[k].t, g.nodes[k].q);
+  for (std::size_t d = 0; d < g.drives.size(); ++d) {
+    const Impl::Drive& dr = g.drives[d];
+    if (dr.fixed) continue;  // held as given
+    const std::vector<Information6>& information = input[d].information;
+    for (std::size_t k = dr.first + 1; k < dr.end; ++k) {
+      const std::size_t a = g.keyframes[k - 1], b = g.keyframes[k];
+      const Pose z = dr.odometry[a].inverse() * dr.odometry[b];
+      Information6 cov = Information6::Zero();
+      if (!information.empty())
+        for (std::size_t i = a + 1; i <= b; ++i) {
+          Information6 info = information[i] * info_scale + fallback;
+          info = 0.5 * (info + info.transpose());
+          cov += info.ldlt().solve(Information6::Identity());
+        }
+      const double len = z.translation().norm();
+      const double st = std::max(cfg.min_drift_ratio * len, 1e-4), sr = std::max(cfg.min_drift_deg_per_m * kDeg * len, 1e-6);
+      cov.diagonal() += (Eigen::Matrix<double, 6, 1>() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr).finished();
+      cov = 0.5 * (cov + cov.transpose());
+      Information6 info = cov.ldlt().solve(Information6::Identity());
+      info = 0.5 * (info + info.transpose());
+      Eigen::LLT<Information6> llt(info);
+      auto* f = new OdometryResidual{z.translation(), Eigen::Quaterniond(z.linear()).normalized(), llt.matrixU()};
+      g.problem.AddResidualBlock(new ceres::AutoDiffCostFunction<OdometryResidual, 6, 3, 4, 3, 4>(f), nullptr, g.nodes[k - 1].t,
+                                 g.nodes[k - 1].q, g.nodes[k].t, g.nodes[k].q);
+    }
   }
   for (const GpsOnKeyframe& e : g.fixes) {
     auto* f = new GpsResidual{e.body, e.world, e.sigma.cwiseInverse()};
@@ -263,6 +337,20 @@ PoseGraph::PoseGraph(const PoseList& odometry_poses, const std::vector<Informati
 PoseGraph::~PoseGraph() = default;
 
 const std::vector<std::size_t>& PoseGraph::keyframes() const { return impl_->keyframes; }
+std::size_t PoseGraph::drives() const { return impl_->drives.size(); }
+std::size_t PoseGraph::drive_of(std::size_t keyframe) const { return impl_->keyframe_drive.at(keyframe); }
+std::size_t PoseGraph::first_keyframe(std::size_t drive) const { return impl_->drives.at(drive).first; }
+bool PoseGraph::joined(std::size_t drive) const { return impl_->drives.at(drive).joined; }
+
+void PoseGraph::join_drive(std::size_t drive, const Pose& correction) {
+  Impl& g = *impl_;
+  Impl::Drive& dr = g.drives.at(drive);
+  if (dr.joined) throw Error("pose graph: drive " + std::to_string(drive + 1) + " is joined already");
+  for (std::size_t k = dr.first; k < dr.end; ++k) g.nodes[k] = node_from(correction * pose_from(g.nodes[k]));
+  if (dr.held && dr.first < dr.end) g.hold(dr.first, false);
+  dr.held = false;
+  dr.joined = true;
+}
 Pose PoseGraph::keyframe_pose(std::size_t k) const { return pose_from(impl_->nodes.at(k)); }
 const Pose& PoseGraph::odometry_pose(std::size_t k) const { return impl_->keyframe_odometry.at(k); }
 
@@ -344,12 +432,14 @@ void PoseGraph::optimize(int max_iterations) {
   g.rep.termination = ceres::TerminationTypeToString(summary.termination_type);
 }
 
-PoseList PoseGraph::poses() const {
+PoseList PoseGraph::poses(std::size_t drive) const {
   const Impl& g = *impl_;
-  PoseList out(g.odometry.size());
-  for (std::size_t i = 0; i < g.odometry.size(); ++i) {
-    const std::size_t k = g.owner[i];
-    out[i] = pose_from(g.nodes[k]) * (g.keyframe_odometry[k].inverse() * g.odometry[i]);
+  if (g.drives.empty()) return {};
+  const Impl::Drive& dr = g.drives.at(drive);
+  PoseList out(dr.odometry.size());
+  for (std::size_t i = 0; i < dr.odometry.size(); ++i) {
+    const std::size_t k = dr.owner[i];
+    out[i] = pose_from(g.nodes[k]) * (g.keyframe_odometry[k].inverse() * dr.odometry[i]);
   }
   return out;
 }
@@ -357,18 +447,31 @@ PoseList PoseGraph::poses() const {
 PoseGraphReport PoseGraph::report() const {
   const Impl& g = *impl_;
   PoseGraphReport rep = g.rep;
-  // Outliers and GPS residuals before (the input trajectory) and now.
+  // Outliers and GPS residuals before (the input trajectory) and now, per drive and in all.
   double before = 0, after = 0;
   std::size_t inliers = 0;
-  for (const GpsOnKeyframe& e : g.fixes) {
-    const Eigen::Vector3d e_after = pose_from(g.nodes[e.keyframe]) * e.body - e.world;
-    if (e_after.cwiseQuotient(e.sigma).norm() > g.cfg.gps_outlier_sigmas) {
-      ++rep.gps_outliers;
-      continue;
+  for (const Impl::Drive& dr : g.drives) {
+    PoseGraphDriveReport d;
+    d.keyframes = dr.end - dr.first;
+    d.gps_edges = dr.gps_end - dr.gps_begin;
+    d.fixed = dr.fixed;
+    double b = 0, a = 0;
+    std::size_t in = 0;
+    for (std::size_t j = dr.gps_begin; j < dr.gps_end; ++j) {
+      const GpsOnKeyframe& e = g.fixes[j];
+      const Eigen::Vector3d e_after = pose_from(g.nodes[e.keyframe]) * e.body - e.world;
+      if (e_after.cwiseQuotient(e.sigma).norm() > g.cfg.gps_outlier_sigmas) {
+        ++d.gps_outliers;
+        continue;
+      }
+      const Eigen::Vector3d e_before = g.keyframe_odometry[e.keyframe] * e.body - e.world;
+      b += e_before.squaredNorm(), a += e_after.squaredNorm();
+      ++in;
     }
-    const Eigen::Vector3d e_before = g.keyframe_odometry[e.keyframe] * e.body - e.world;
-    before += e_before.squaredNorm(), after += e_after.squaredNorm();
-    ++inliers;
+    if (in > 0) d.gps_rms_before_m = std::sqrt(b / in), d.gps_rms_after_m = std::sqrt(a / in);
+    before += b, after += a, inliers += in;
+    rep.gps_outliers += d.gps_outliers;
+    rep.drives.push_back(d);
   }
   if (inliers > 0) rep.gps_rms_before_m = std::sqrt(before / inliers), rep.gps_rms_after_m = std::sqrt(after / inliers);
   return rep;

@@ -23,4 +23,11 @@ CLI::Option* dataset_option(CLI::App& app, std::string& path, DatasetOptions& to
       ->type_name("PATH");
 }
 
+CLI::Option* datasets_option(CLI::App& app, std::vector<std::string>& paths, DatasetOptions& topics, const std::string& help) {
+  topic_options(app, topics);
+  return app.add_option("--dataset", paths, help + ": a KITTI folder, a ROS 1 bag, a ROS 2 bag (folder or .db3), an MCAP file or a pcap capture of a LiDAR")
+      ->required()
+      ->type_name("PATH");
+}
+
 }  // namespace pl::cli

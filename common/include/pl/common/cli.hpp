@@ -100,6 +100,8 @@ GeoPoint geo_point(const std::string& text, const std::string& flag);
 // A file the program writes, checked while parsing (pl::output_file_problem); a folder the program
 // creates or writes into (pl::output_folder_problem).
 CLI::Option* output_file(CLI::App& app, const std::string& flag, std::string& path, const std::string& help);
+// The same, given once or more (each path checked).
+CLI::Option* output_files(CLI::App& app, const std::string& flag, std::vector<std::string>& paths, const std::string& help);
 CLI::Option* output_folder(CLI::App& app, const std::string& flag, std::string& path, const std::string& help);
 
 template <typename E>

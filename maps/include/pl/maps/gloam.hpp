@@ -1,6 +1,11 @@
-// G-LOAM: a map from a drive. The scans are placed at the dataset's ground-truth poses, or at the
-// poses of LiDAR odometry (LOAM), optionally corrected by a pose graph of keyframes with the drive's
-// GPS fixes and with loop closures, then merged into one voxelized cloud. pl-map build runs it.
+// G-LOAM: a map from one drive or several. The scans are placed at the datasets' ground-truth poses,
+// or at the poses of LiDAR odometry (LOAM, each drive its own chain), optionally corrected by one
+// pose graph of keyframes with every drive's GPS fixes and with loop closures within and between
+// drives, then merged into one voxelized cloud. pl-map build runs it.
+//
+// The map's frame is the first drive's world frame. Another drive's ground truth and GPS fixes are
+// brought into it through their geodetic reference (both datasets' projections of the same points);
+// drives without one are taken to share the first's frame.
 #pragma once
 
 #include <cstddef>
@@ -52,11 +57,17 @@ struct GloamObserver {
   std::function<void(const std::string& line)> log;
 };
 
-struct GloamResult {
+// One drive's poses in the map's frame.
+struct GloamDrive {
+  std::string dataset;             // its path, as given
   Trajectory poses;                // the LiDAR pose of every scan, with the scan times
   Trajectory odometry;             // with LiDAR poses: the odometry's, before the pose graph (moved as a
-                                   // whole to start where the graph put the first scan); empty otherwise
-  MapCloud map;                    // in the dataset's world frame (or the first scan's, see origin)
+                                   // whole to start where the graph put its first scan); empty otherwise
+};
+
+struct GloamResult {
+  std::vector<GloamDrive> drives;  // in the order given
+  MapCloud map;                    // in the first dataset's world frame (or its first scan's, see origin)
   std::optional<GeoPoint> origin;  // the map frame's geodetic origin; none in the first scan's frame
   std::size_t merged_scans = 0;
   double voxel_m = 0;              // of the merge
@@ -68,12 +79,20 @@ struct GloamResult {
 // a bad voxel or scan step) and for a dataset that lacks what the config needs (ground truth for
 // poses = GroundTruth, GPS fixes for gps). Checked before any scan is read.
 void check_gloam_config(const GloamConfig& cfg);
+// Several drives: a drive that nothing ties to the map (no GPS fixes, no loop to a drive that is
+// tied) is refused by name, as is a second drive with LiDAR poses and neither gps nor loops.
+GloamResult build_gloam_map(const std::vector<const Dataset*>& drives, const GloamConfig& cfg, const GloamObserver& observer = {});
 GloamResult build_gloam_map(const Dataset& ds, const GloamConfig& cfg, const GloamObserver& observer = {});
 
-// Writes the odometry's trajectory, the report and the trajectory (KITTI, or TUM with the scan times
-// when the name ends in .tum) when their paths are not empty, then the map (PCD with its origin);
-// returns a "wrote ..." line for each. Throws pl::Error for an odometry path when no odometry ran.
-std::string write_gloam_outputs(const GloamResult& r, const std::string& map_pcd, const std::string& trajectory,
-                                const std::string& report, const std::string& odometry = {});
+// The paths to write (empty: not written); trajectories and odometry one per drive, or none.
+struct GloamOutputs {
+  std::string map_pcd, report;
+  std::vector<std::string> trajectories, odometry;
+};
+// Writes the odometry's trajectories, the report and the trajectories (KITTI, or TUM with the scan
+// times when the name ends in .tum), then the map (PCD with its origin) and its places; returns a
+// "wrote ..." line for each. Throws pl::Error for odometry paths when no odometry ran, and for a
+// number of trajectory paths other than the drives'.
+std::string write_gloam_outputs(const GloamResult& r, const GloamOutputs& out);
 
 }  // namespace pl::maps

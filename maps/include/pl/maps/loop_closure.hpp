@@ -1,8 +1,8 @@
 // Loop closures for the pose graph: when the drive comes back to a place, the relative pose between
 // the keyframe now and a keyframe from the earlier visit is measured by ICP and added as an edge.
 //
-// Keyframes are taken in drive order. Each queries the keyframes at least min_separation_m of path
-// behind it, proposed two ways: by position (the nearest in the current estimate, within
+// Keyframes are taken in drive order, drive after drive. Each queries its own drive's keyframes at
+// least min_separation_m of path behind it and every keyframe of the earlier drives, proposed two ways: by position (the nearest in the current estimate, within
 // position_radius_m) and by place (the place descriptor's nearest neighbours, for when drift has
 // moved the estimate too far). A proposal is verified by point-to-plane ICP of the keyframe's cloud
 // against a local map around the earlier keyframe (its neighbours along the drive merged, normals
@@ -10,6 +10,9 @@
 // problem and (by position) a correction the estimate can explain; the graph is re-solved with it,
 // and the edge stays only if the graph can take it in without leaving the GPS fixes, so later
 // proposals start from the corrected estimate. A last solve runs to convergence at the end.
+//
+// A drive with no GPS floats in its own frame until a loop by place ties it to a drive that is tied
+// to the map: the first such loop moves it onto the map (PoseGraph::join_drive).
 #pragma once
 
 #include <Eigen/Core>
@@ -79,7 +82,8 @@ struct LoopReport {
   std::vector<LoopRecord> loops;  // every verified proposal, in order
   double verify_ms = 0;           // registrations and local maps
   double residual_before_m = 0;   // median translation residual of the accepted loop edges against the
-  double residual_after_m = 0;    // graph before loops were added (odometry + GPS) and after the last solve
+  double residual_after_m = 0;    // graph before loops were added (odometry + GPS; loops of drives that floated
+                                  // then left out) and after the last solve
 };
 
 // Finds and adds loop edges to `graph`, re-solving it on each one. `clouds` holds one cloud per

@@ -16,18 +16,25 @@
 namespace pl::maps {
 
 // Accumulates points into voxels (sums in double, first-seen order) so that a map of thousands of
-// scans is one centroid per voxel over all of them, not a centroid of centroids.
+// scans is one centroid per voxel over all of them, not a centroid of centroids. With a scan number
+// and a drive, each voxel also counts the scans that returned from it and the drives that did.
 class VoxelAccumulator {
  public:
   explicit VoxelAccumulator(double voxel);
   void add(const Eigen::Vector3d& p, float intensity);
+  // scan: numbered from 1, ascending; drive < 64.
+  void add(const Eigen::Vector3d& p, float intensity, std::uint32_t scan, unsigned drive);
   std::size_t size() const { return sums_.size(); }
   Points3d centroids(std::vector<float>& intensity) const;
+  std::vector<std::uint32_t> scans() const;   // per voxel, in the order of centroids()
+  std::vector<std::uint64_t> drives() const;  // per voxel: bit d set when drive d returned from it
 
  private:
   struct Sum {
     double x, y, z, i;
     std::uint32_t n;
+    std::uint32_t scans = 0, last_scan = 0;
+    std::uint64_t drives = 0;
   };
   double inv_;
   std::unordered_map<VoxelIndex, std::uint32_t, VoxelIndexHash> index_;
@@ -52,12 +59,38 @@ struct MapBuildConfig {
 struct MapCloud {
   Points3d points;               // world frame of the dataset
   std::vector<float> intensity;  // one per point
+  std::vector<std::uint32_t> seen;    // per point: the scans that returned from its voxel
+  std::vector<std::uint64_t> drives;  // per point: bit d set when drive d returned from its voxel
   registration::PlaceIndex places;  // world frame, like the points
+  // Keeps the points whose `keep` is true (and their intensity, seen and drives).
+  void keep_only(const std::vector<bool>& keep);
 };
 
 // Merges the dataset's scans placed by `poses` (one per scan). `progress(done, total)` may be null.
 MapCloud build_map_from_poses(const Dataset& ds, const Trajectory& poses, const MapBuildConfig& cfg,
                               const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+// A drive of a map built from several: its dataset and a pose per scan in the map's frame.
+struct PlacedDrive {
+  const Dataset* dataset = nullptr;
+  const Trajectory* poses = nullptr;
+  bool deskew = false;  // motion compensation for this drive (cfg.deskew is not read)
+  double sweep_s = 0.1;
+};
+
+// Merges several drives, in order, into one map (at most 64). progress(done, total) over all scans.
+MapCloud build_map_from_drives(const std::vector<PlacedDrive>& drives, const MapBuildConfig& cfg,
+                               const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+// The scans build_map_from_drives merges, in its order, each loaded and prepared as it merges them
+// (crops, motion compensation), with the sensor pose: for a second pass over the same points.
+void for_each_merged_scan(const std::vector<PlacedDrive>& drives, const MapBuildConfig& cfg,
+                          const std::function<void(std::size_t drive, std::size_t scan, const Pose& sensor, const Scan& kept)>& visit);
+
+// The scan's points moved to where the sensor was at the scan's time, `sweep` the sensor's motion
+// over one sweep of sweep_s (its own frame); each point timed by `times` (seconds from the scan's
+// time, one per point) when given, else by its azimuth.
+void compensate_sweep(Scan& scan, const std::vector<float>& times, const Pose& sweep, double sweep_s);
 
 // (Normals: pl::registration::estimate_normals.)
 

@@ -1,4 +1,5 @@
-// The back end of map building: a pose graph over keyframes of a LiDAR odometry trajectory. Edges:
+// The back end of map building: a pose graph over keyframes of the LiDAR odometry of one or more
+// drives (each its own chain). Edges:
 // the odometry chain (the relative pose between consecutive keyframes, weighted by the front end's
 // registration information), GPS positions of the antenna (pose * lever arm) with a robust loss, so
 // that multipath fixes are down-weighted, and loop closures (relative poses between keyframes far
@@ -73,6 +74,14 @@ struct GpsEdge {
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
 };
 
+// One drive's share of the graph's report.
+struct PoseGraphDriveReport {
+  std::size_t keyframes = 0;
+  std::size_t gps_edges = 0, gps_outliers = 0;
+  double gps_rms_before_m = 0.0, gps_rms_after_m = 0.0;
+  bool fixed = false;  // held as given (a base map's drive)
+};
+
 struct PoseGraphReport {
   std::size_t keyframes = 0;
   std::size_t gps_edges = 0;     // used (status other than none)
@@ -83,6 +92,20 @@ struct PoseGraphReport {
   int iterations = 0;     // over all solves
   double solve_ms = 0.0;  // over all solves
   std::string termination;  // Ceres' termination type of the last solve, "skipped" (no poses) or "no gps or loops"
+  std::vector<PoseGraphDriveReport> drives;  // one per drive, in order
+};
+
+// One drive's chain: its odometry (own frame), the front end's information, its GPS fixes (antenna
+// positions in the map frame) and the antenna's lever arm in the sensor frame.
+struct GraphDrive {
+  PoseList odometry;
+  std::vector<Information6> information;  // one per scan, or empty
+  std::vector<GpsEdge> gps;
+  Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();
+  // Its poses are known (a base map's drive, already in the map frame): its keyframes are held
+  // constant and the other drives join it.
+  bool fixed = false;
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
 };
 
 // The graph, kept between solves so that loop edges can be added as they are found.
@@ -94,12 +117,26 @@ class PoseGraph {
   // enough. Throws pl::Error on mismatched sizes or a GPS edge naming a scan out of range.
   PoseGraph(const PoseList& odometry_poses, const std::vector<Information6>& information, const std::vector<GpsEdge>& gps,
             const Eigen::Vector3d& lever_arm, const PoseGraphConfig& cfg);
+  // Several drives, keyframes numbered drive after drive. Each drive with GPS is aligned to its own
+  // fixes. The frame is held by the fixed drives, else by the fixes, else by the first drive's first
+  // keyframe. A drive with neither fixes nor a fixed pose floats until a loop joins it (join_drive):
+  // until then its first keyframe is held where it is.
+  PoseGraph(const std::vector<GraphDrive>& drives, const PoseGraphConfig& cfg);
   ~PoseGraph();
   PoseGraph(const PoseGraph&) = delete;
   PoseGraph& operator=(const PoseGraph&) = delete;
 
-  // Scan index of each keyframe (ascending; the first is scan 0).
+  // Scan index of each keyframe within its drive (ascending per drive; each drive's first is scan 0).
   const std::vector<std::size_t>& keyframes() const;
+  std::size_t drives() const;
+  std::size_t drive_of(std::size_t keyframe) const;
+  std::size_t first_keyframe(std::size_t drive) const;  // the drive's keyframes: first .. first of the next
+  // Whether the drive is tied to the map frame: fixed, with GPS fixes, the frame's own first drive,
+  // or joined by a loop.
+  bool joined(std::size_t drive) const;
+  // Moves a floating drive's whole estimate by `correction` (map frame, on the left) and lets its
+  // first keyframe go: the loop just found ties it to the others.
+  void join_drive(std::size_t drive, const Pose& correction);
   // Current estimate of keyframe k, and its pose from the odometry alone (same frame as the input).
   Pose keyframe_pose(std::size_t k) const;
   const Pose& odometry_pose(std::size_t k) const;
@@ -116,8 +153,8 @@ class PoseGraph {
   double gps_cost() const;
   // Levenberg-Marquardt from the current estimate (at most max_iterations; 0: the config's).
   void optimize(int max_iterations = 0);
-  // One pose per scan: each at its odometry offset from its keyframe.
-  PoseList poses() const;
+  // One pose per scan of the (first) drive: each at its odometry offset from its keyframe.
+  PoseList poses(std::size_t drive = 0) const;
   // Keyframes, edges, GPS residuals before (the odometry) and now, solve statistics.
   PoseGraphReport report() const;
 

@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 
 #include <string>
+#include <vector>
 
 #include "pl/recordings/dataset.hpp"
 
@@ -14,6 +15,8 @@ namespace pl::cli {
 // --odom-topic, --gps-topic, --truth-topic; for a recording of LiDAR packets, --lidar-calibration and
 // --lidar-model.
 CLI::Option* dataset_option(CLI::App& app, std::string& path, DatasetOptions& topics, const std::string& help);
+// The same, --dataset given once or more (the topic flags apply to every recording).
+CLI::Option* datasets_option(CLI::App& app, std::vector<std::string>& paths, DatasetOptions& topics, const std::string& help);
 // The topic flags alone (for a program whose dataset is a positional argument).
 void topic_options(CLI::App& app, DatasetOptions& topics);
 
