@@ -14,6 +14,7 @@
 #include <unordered_set>
 
 #include "pl/common/error.hpp"
+#include "pl/registration/ray_crossing.hpp"
 
 namespace pl::client {
 
@@ -223,40 +224,31 @@ bool ChangeEvidence::add(const Eigen::Isometry3d& sensor_in_map, const std::vect
     }
   }
 
-  // The rays: map points passed through, added voxels now seen empty.
-  const float pass2 = static_cast<float>(cfg_.pass_radius_m * cfg_.pass_radius_m);
-  const float min_cos = static_cast<float>(cfg_.min_incidence);
-  const double cross2 = cfg_.cross_radius_m * cfg_.cross_radius_m;
+  // The rays: map points passed through (pl/registration/ray_crossing.hpp), added voxels now seen empty.
+  registration::RayCrossingConfig ray;
+  ray.start_m = cfg_.min_range_m;
+  ray.step_m = cfg_.ray_step_m;
+  ray.margin_m = cfg_.ray_margin_m;
+  ray.pass_radius_m = cfg_.pass_radius_m;
+  ray.cross_radius_m = cfg_.cross_radius_m;
+  ray.min_incidence = cfg_.min_incidence;
   registration::CellBlock block;
   for (const Impl::Return& ret : m.returns) {
-    const Eigen::Vector3d& from = ret.from;
-    const Eigen::Vector3d d = ret.at - from;
-    const double range = d.norm();
-    const Eigen::Vector3d dir = d / range;
-    const Eigen::Vector3f dirf = dir.cast<float>();
-    const double stop = range - cfg_.ray_margin_m;
     std::uint64_t last_key = ~std::uint64_t{0};
-    for (double s = cfg_.min_range_m; s < stop; s += cfg_.ray_step_m) {
-      const Eigen::Vector3d x = from + s * dir;
+    auto probe = [&](const Eigen::Vector3d& x, double) {
       std::int64_t vx, vy, vz;
-      if (!voxel(x, vx, vy, vz)) break;
+      if (!voxel(x, vx, vy, vz)) return false;
       const std::uint64_t here = pack(vx, vy, vz);
       if (here != last_key) {
         last_key = here;
         auto it = m.cells.find(here);
         if (it != m.cells.end() && it->second.added > 0) count_once(it->second.free, it->second.free_at, scan);
       }
-      const registration::Neighbour nb = map.nearest((x - anchor).cast<float>(), pass2, block);
-      if (!nb.point) continue;
-      // The ray passes through the map's surface there only when it crosses the point's tangent
-      // plane near the point (a ray beside a corner or along a wall's end comes near without).
-      const float cos_in = nb.point->n.dot(dirf);
-      if (std::abs(cos_in) < min_cos) continue;
-      const Eigen::Vector3d mp = anchor + nb.point->p.cast<double>();
-      const double cross = s + nb.point->n.cast<double>().dot(mp - x) / static_cast<double>(cos_in);
-      if (cross >= stop || ((from + cross * dir) - mp).squaredNorm() > cross2) continue;
+      return true;
+    };
+    auto crossed = [&](const registration::MapPoint&, const Eigen::Vector3d& mp) {
       std::int64_t mx, my, mz;
-      if (!voxel(mp, mx, my, mz)) continue;
+      if (!voxel(mp, mx, my, mz)) return;
       // A map surface confirmed by a return this scan within a voxel of the point is still there:
       // the ray passed glass, leaves or an edge of it, not a thing that is gone.
       bool confirmed = false;
@@ -268,7 +260,8 @@ bool ChangeEvidence::add(const Eigen::Isometry3d& sensor_in_map, const std::vect
           }
       Cell& c = cell_at(pack(mx, my, mz), mx, my, mz);
       if (!confirmed) count_once(c.passed, c.passed_at, scan);
-    }
+    };
+    registration::walk_ray(map, ret.from, ret.at, ray, block, probe, crossed);
   }
 
   // Bounded memory over a long drive: the voxels with nothing but returns on the map are dropped

@@ -1,0 +1,81 @@
+// Things that moved during the mapping drives, found in a merged map by free-space evidence: a map
+// point that rays of other scans passed through was not there all the time, so it is not structure
+// the vehicle will find tomorrow.
+//
+// The rule (issue 44): a merged point is removed when the rays of at least min_passes scans crossed
+// it (pl/registration/ray_crossing.hpp: through its tangent plane, near it, at |cos incidence| >= 0.4,
+// at least 1 m short of the ray's own return) and those scans are at least pass_share of the scans
+// that returned from its voxel. A scan's crossing does not count when that scan itself returned from
+// within one voxel of the point (glass, leaves, an edge: the surface is still there). A parked car
+// seen by every scan of a drive is crossed by few rays, at its edges, against many returns: it stays.
+// Also removed: what lies in the vehicle's own corridor (a lead vehicle in the lane is never seen
+// through, but the mapping vehicle drove where it was).
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "pl/common/pose.hpp"
+#include "pl/common/voxel.hpp"
+#include "pl/registration/ray_crossing.hpp"
+
+namespace pl::maps {
+
+struct FreeSpaceConfig {
+  double min_range_m = 3.0, max_range_m = 40.0;  // returns whose rays are walked (sensor frame range)
+  double ray_voxel_m = 0.5;    // a scan thinned to one return per voxel for its rays
+  double min_travel_m = 0.5;   // a scan's rays walked once the sensor moved this far since the last
+  registration::RayCrossingConfig ray;  // its start_m is where a ray's probes begin
+  std::uint32_t min_passes = 2;  // a map point is removed when at least this many scans' rays crossed it
+  double pass_share = 0.5;       // ... and at least this share of the scans that returned from its voxel
+  // The vehicle's own corridor: map points within corridor_m (horizontally) of the sensor's path
+  // between consecutive scans of a drive, from corridor_below_m below the sensor to corridor_above_m
+  // above it, are removed: the vehicle drove there. corridor_m = 0: no corridor.
+  double corridor_m = 1.0, corridor_below_m = 1.4, corridor_above_m = 0.3;
+  double max_corridor_step_m = 10.0;  // consecutive scans farther apart than this are not joined (a gap)
+  // Throws pl::Error naming the field and its allowed range.
+  void validate() const;
+};
+
+struct FreeSpaceReport {
+  std::size_t points = 0;               // merged map points
+  std::size_t scans = 0;                // scans added
+  std::size_t walked = 0;               // scans whose rays were walked (min_travel_m)
+  std::size_t rays = 0;                 // rays walked
+  std::size_t passed = 0;               // map points some scan's rays crossed
+  std::size_t removed_by_rays = 0;      // removed by the rule
+  std::size_t removed_by_corridor = 0;  // removed by the corridor and not by the rule
+  double ms = 0;                        // time in add_scan, all scans (steady clock)
+};
+
+class FreeSpaceFilter {
+ public:
+  // The merged map: voxel centroids (world frame, voxel_m voxels, one point per voxel), one unit
+  // normal each, and per point the number of scans that returned from its voxel (`seen`). Throws
+  // pl::Error when the sizes differ, voxel_m is not within 0.02..5 m or the config is invalid.
+  FreeSpaceFilter(const Points3d& points, const std::vector<Eigen::Vector3f>& normals, const std::vector<std::uint32_t>& seen,
+                  double voxel_m, const FreeSpaceConfig& cfg);
+  ~FreeSpaceFilter();
+  FreeSpaceFilter(const FreeSpaceFilter&) = delete;
+  FreeSpaceFilter& operator=(const FreeSpaceFilter&) = delete;
+
+  // A new drive: the corridor is not drawn from the last drive's last scan.
+  void begin_drive();
+  // One scan: points in the sensor frame, the sensor pose in the world frame; `origins`, empty or
+  // one per point (sensor frame): where the sensor fired each point (a deskewed sweep). Throws
+  // pl::Error when origins has another size.
+  void add_scan(const Pose& sensor, const std::vector<Eigen::Vector3f>& points, const std::vector<Eigen::Vector3f>& origins = {});
+
+  const std::vector<std::uint32_t>& passes() const;  // per map point: scans whose rays crossed it
+  std::vector<bool> moving() const;                  // per map point: removed (rays or corridor)
+  FreeSpaceReport report() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace pl::maps
