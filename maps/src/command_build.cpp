@@ -76,6 +76,17 @@ void add_build(cli::Tool& tool, std::ostream& out) {
               "LiDAR odometry's features for recordings without meta.json, and everything for drives with point_times/ "
               "such as pl-sim's; the merged map of a KITTI raw drive only with on, as there it did not help)",
               {{"auto", Deskew::Auto}, {"on", Deskew::On}, {"off", Deskew::Off}});
+  c.add_option_function<std::string>("--loops-between", [s](const std::string& v) { s->cfg.loop.between_drives = v == "on"; },
+                                     "(with --loops and several drives) on (default): loops between the drives too; off: each "
+                                     "drive's loops within itself (the drives then meet only through their GPS fixes)")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->type_name("on|off");
+  c.add_option_function<std::string>("--moving", [s](const std::string& v) { s->cfg.remove_moving = v == "remove"; },
+                                     "remove (default): points of things that moved during the drives are left out of the map "
+                                     "(free-space evidence: the rays of the drives' other scans passed through them, docs/g-loam.md); "
+                                     "keep: every return is merged")
+      ->check(CLI::IsMember({"remove", "keep"}))
+      ->type_name("remove|keep");
   cli::number(c, "--voxel", merge.voxel_m, "voxel side of the map, metres", cli::above(0));
   cli::number(c, "--every", merge.every, "merge every N-th scan (the odometry still uses them all)", cli::at_least(1));
   cli::number(c, "--min-range", merge.scan.min_range_m, "returns closer than this are not merged, metres", cli::at_least(0));

@@ -17,6 +17,7 @@
 #include "pl/common/scan.hpp"
 #include "pl/common/text.hpp"
 #include "pl/maps/import.hpp"
+#include "pl/registration/normals.hpp"
 #include "pl/registration/place_index.hpp"
 
 namespace pl::maps {
@@ -297,6 +298,33 @@ nlohmann::json tile_sources(const MapCloud& map, std::size_t drives) {
   return out;
 }
 
+// The merged map's points of things that moved, removed by the rays of every merged scan.
+nlohmann::json remove_moving(MapCloud& map, const std::vector<PlacedDrive>& drives, const GloamConfig& cfg, const Tell& tell) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<Eigen::Vector3f> normals = registration::estimate_normals(map.points, 3.0 * cfg.merge.voxel_m);
+  FreeSpaceFilter filter(map.points, normals, map.seen, cfg.merge.voxel_m, cfg.free_space);
+  std::size_t scans = 0, done = 0, last_drive = SIZE_MAX;
+  for (const PlacedDrive& d : drives) scans += (d.dataset->size() + cfg.merge.every - 1) / cfg.merge.every;
+  for_each_merged_scan(drives, cfg.merge, [&](std::size_t drive, std::size_t, const Pose& sensor, const Scan& kept) {
+    if (drive != last_drive) filter.begin_drive(), last_drive = drive;
+    filter.add_scan(sensor, to_points(kept));
+    tell.progress("removing moving things", ++done, scans);
+  });
+  const std::vector<bool> moving = filter.moving();
+  std::vector<bool> keep(moving.size());
+  for (std::size_t i = 0; i < moving.size(); ++i) keep[i] = !moving[i];
+  map.keep_only(keep);
+  const FreeSpaceReport r = filter.report();
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  tell.log(format_text("moving things: %zu of %zu points removed (%zu crossed by the rays of other scans, %zu in the vehicle's "
+                       "corridor), %zu rays from %zu scans, %.1f s",
+                       r.removed_by_rays + r.removed_by_corridor, r.points, r.removed_by_rays, r.removed_by_corridor, r.rays,
+                       r.walked, s));
+  return {{"points", r.points},       {"removed_by_rays", r.removed_by_rays}, {"removed_by_corridor", r.removed_by_corridor},
+          {"rays", r.rays},           {"scans_walked", r.walked},             {"crossed", r.passed},
+          {"seconds", s}};
+}
+
 }  // namespace
 
 void check_gloam_config(const GloamConfig& cfg) {
@@ -392,6 +420,7 @@ GloamResult build_gloam_map(const std::vector<const Dataset*>& drives, const Glo
   result.voxel_m = cfg.merge.voxel_m;
   const std::size_t merged = result.merged_scans;
   result.map = build_map_from_drives(placed, cfg.merge, [&](std::size_t done, std::size_t) { tell.progress("merging scans", done, merged); });
+  if (cfg.remove_moving) report["moving"] = remove_moving(result.map, placed, cfg, tell);
   if (n > 1) report["tiles"] = tile_sources(result.map, n);
   result.report_json = report.dump(2) + "\n";
   for (std::size_t d = 0; d < n; ++d) result.drives.push_back({drives[d]->dir, std::move(poses[d]), std::move(odometry[d])});

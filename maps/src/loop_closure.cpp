@@ -138,7 +138,7 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
     // means anything (the floating drive's estimate is in its own frame); two floating drives wait.
     const bool here_joined = graph.joined(drive[i]);
     std::vector<std::size_t> eligible;
-    for (std::size_t j = 0; j < begin[i]; ++j)
+    for (std::size_t j = 0; j < begin[i] && cfg.between_drives; ++j)
       if (here_joined || graph.joined(drive[j])) eligible.push_back(j);
     if (path[i] >= cfg.min_separation_m && here_joined) {
       const auto last = std::upper_bound(path.begin() + static_cast<long>(begin[i]), path.begin() + static_cast<long>(i),

@@ -15,6 +15,7 @@
 
 #include "pl/common/geo.hpp"
 #include "pl/common/pose.hpp"
+#include "pl/maps/free_space.hpp"
 #include "pl/maps/loam.hpp"
 #include "pl/maps/loop_closure.hpp"
 #include "pl/maps/map_builder.hpp"
@@ -45,13 +46,17 @@ struct GloamConfig {
   Deskew deskew = Deskew::Auto;
   MapBuildConfig merge = gloam_merge_defaults();  // voxel, which scans (`every` thins the map only), crops
   double loop_voxel_m = 0.3;  // the keyframe clouds kept for loop closure (merge crops, this voxel)
+  // Things that moved during the drives left out of the merged map (free_space.hpp), by the rays of
+  // every merged scan of every drive.
+  bool remove_moving = true;
+  FreeSpaceConfig free_space;
   LoamConfig loam;            // its deskew and scan period are set from `deskew` and the dataset
   PoseGraphConfig graph;
   LoopClosureConfig loop;
 };
 
 // What a long build tells as it goes: progress(stage, done, total) for "lidar odometry", "loop
-// closure" and "merging scans"; log(line) with a summary line at the end of each stage.
+// closure", "merging scans" and "removing moving things"; log(line) with a summary line at the end of each stage.
 struct GloamObserver {
   std::function<void(const std::string& stage, std::size_t done, std::size_t total)> progress;
   std::function<void(const std::string& line)> log;

@@ -30,6 +30,7 @@ namespace pl::maps {
 
 struct LoopClosureConfig {
   // Proposals.
+  bool between_drives = true;        // false: each drive's loops within itself only
   double min_separation_m = 30.0;    // path between the two keyframes, at least
   double position_radius_m = 10.0;   // by position: the nearest keyframe this close (horizontal), current estimate
   int descriptor_candidates = 5;     // by place: this many ring-key neighbours compared in full ...
