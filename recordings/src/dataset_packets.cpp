@@ -1,7 +1,6 @@
 // A recording whose scans are a LiDAR's packets (a driver's packet topic, or a pcap file): the topic
 // to decode, the decoder's options from the dataset's, and what the sensor tells the dataset.
 #include <algorithm>
-#include <cstdio>
 #include <map>
 #include <optional>
 
@@ -107,7 +106,7 @@ std::unique_ptr<PacketScans> open_packet_scans(bag::Reader& r, std::uint32_t top
   if (vendor == lidar::Vendor::Ouster && o.calibration_path.empty()) {
     for (const bag::MessageRef& m : r.messages()) {
       const bag::Topic& s = r.topics()[m.topic];
-      if (ros::is_lidar_metadata(s.type) && s.name.size() >= 8 && s.name.compare(s.name.size() - 8, 8, "metadata") == 0) {
+      if (ros::is_lidar_metadata(s.type) && ends_with(s.name, "metadata")) {
         o.calibration_text = ros::decode_string(r.read(m), s.encoding, r.path() + ": " + s.name);
         break;
       }

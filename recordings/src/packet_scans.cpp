@@ -39,9 +39,6 @@ PacketScans::PacketScans(std::unique_ptr<PacketStream> stream, lidar::Vendor ven
     median_points_ = sorted[sorted.size() / 2];
   }
   if (points.size() >= 3) {
-    std::vector<std::size_t> sorted = points;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-    median_points_ = sorted[sorted.size() / 2];
     const std::size_t half = median_points_ / 2;
     if (points.back() < half) stamps_.pop_back(), start_unit_.pop_back(), ++partial_;
     if (points.front() < half) stamps_.erase(stamps_.begin()), start_unit_.erase(start_unit_.begin()), ++partial_;
