@@ -76,7 +76,7 @@ localize() {  # MAP NAME
   "$bin/pl-map" tile --cloud "$1" --db "$2.sqlite" --map town >/dev/null
   "$bin/pl-map" publish --db "$2.sqlite" --map town --version 1 >/dev/null
   "$bin/pl-localize" --dataset probe --db "$2.sqlite" --map town --beams 16 --odometry encoder --init gt \
-    --kitti-out "probe.$2.txt" >"probe.$2.log"
+    --out "probe.$2.tum" --kitti-out "probe.$2.txt" >"probe.$2.log"
   "$bin/pl-eval" ape --est "probe.$2.txt" --gt probe/poses.txt --json >"probe.$2.ape"
   printf '%-14s APE mean %.4f m, RMSE %.4f m, max %.3f m; %s\n' "$2" \
     "$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["mean"])' "probe.$2.ape")" \

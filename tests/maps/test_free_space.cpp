@@ -328,8 +328,9 @@ TEST(FreeSpace, TimePerScanOf64Beams) {
   EXPECT_LE(s.share(kWall), 0.01);
   EXPECT_LE(s.share(kGround), 0.01);
   // The drive ends beside the parked car: its roof's edge, seen by the last scan alone and
-  // passed close over by earlier rays (edge normals tilted), goes (12 of 307 points, 4 %).
-  EXPECT_LE(s.share(kParked), 0.06);
+  // passed close over by earlier rays (edge normals tilted), goes (20 of 307 points, 6.5 %, with
+  // crossings down to |cos| 0.2; 12 at 0.4).
+  EXPECT_LE(s.share(kParked), 0.08);
   EXPECT_GE(s.share(kMoving), 0.8);
   EXPECT_LT(r.report.ms / static_cast<double>(r.report.walked), 1000.0);  // a bound for a loaded machine; typical figure in the log
 }

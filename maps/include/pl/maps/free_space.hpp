@@ -2,8 +2,8 @@
 // point that rays of other scans passed through was not there all the time, so it is not structure
 // the vehicle will find tomorrow.
 //
-// The rule (issue 44): a merged point is removed when the rays of at least min_passes scans crossed
-// it (pl/registration/ray_crossing.hpp: through its tangent plane, near it, at |cos incidence| >= 0.4,
+// The rule: a merged point is removed when the rays of at least min_passes scans crossed it
+// (pl/registration/ray_crossing.hpp: through its tangent plane, near it, at |cos incidence| >= 0.2,
 // at least 1 m short of the ray's own return) and those scans are at least pass_share of the scans
 // that returned from its voxel. A scan's crossing does not count when that scan itself returned from
 // within one voxel of the point (glass, leaves, an edge: the surface is still there). A parked car
@@ -24,11 +24,21 @@
 
 namespace pl::maps {
 
+// The change reports' ray test, with probes from 1.5 m and crossings down to |cos| 0.2: on the
+// town's three drives with traffic these took the ghosts left from 30 % to 19 % of a plain merge's
+// for 0.07 percentage points of static structure.
+inline registration::RayCrossingConfig free_space_rays() {
+  registration::RayCrossingConfig r;
+  r.start_m = 1.5;
+  r.min_incidence = 0.2;
+  return r;
+}
+
 struct FreeSpaceConfig {
-  double min_range_m = 3.0, max_range_m = 40.0;  // returns whose rays are walked (sensor frame range)
+  double min_range_m = 2.0, max_range_m = 40.0;  // returns whose rays are walked (sensor frame range)
   double ray_voxel_m = 0.5;    // a scan thinned to one return per voxel for its rays
   double min_travel_m = 0.5;   // a scan's rays walked once the sensor moved this far since the last
-  registration::RayCrossingConfig ray;  // its start_m is where a ray's probes begin
+  registration::RayCrossingConfig ray = free_space_rays();  // its start_m is where a ray's probes begin
   std::uint32_t min_passes = 2;  // a map point is removed when at least this many scans' rays crossed it
   double pass_share = 0.5;       // ... and at least this share of the scans that returned from its voxel
   // The vehicle's own corridor: map points within corridor_m (horizontally) of the sensor's path
