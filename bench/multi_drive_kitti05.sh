@@ -61,7 +61,7 @@ echo "second half without GPS:          $(ape "$d/two-nogps.txt" "$d/oxts.txt")"
 
 # Moving things: the whole drive at OXTS poses, every return merged against the moving ones removed.
 "$bin/pl-map" build --dataset "$drive" --poses gt --moving keep --out "$d/kept.pcd" >/dev/null
-"$bin/pl-map" build --dataset "$drive" --poses gt --out "$d/cleaned.pcd" | grep "moving things"
+"$bin/pl-map" build --dataset "$drive" --poses gt --moving remove --out "$d/cleaned.pcd" | grep "moving things"
 for m in kept cleaned; do
   "$bin/pl-eval" topview --cloud "$d/$m.pcd" --cell 0.2 --title "drive 0005 at OXTS poses: $m" --out "$d/top-$m.svg" >/dev/null
 done

@@ -6,7 +6,8 @@
 #   2. at true poses: the plain merge (--moving keep), the cleaned one (--moving remove), and the
 #      traffic-free merge: (a) points off the world's surfaces (> 0.3 m), the ghosts; (b) the
 #      traffic-free merge's points kept (a cleaned point within 0.21 m: one voxel);
-#   3. a fourth drive (16 beams, its own traffic) localized on the cleaned and the traffic-free map;
+#   3. a fourth drive (the other way, its own traffic) localized with 16 of its 64 beams on the
+#      cleaned, the traffic-free and the plain map;
 #   4. the whole build (LiDAR odometry + GPS at 1.5 m, consumer grade + loops) of 1, 2 and 3 drives:
 #      time a scan and each drive's APE, with and without the loops between the drives.
 # Usage: bench/multi_drive_town.sh BIN DIR [FRAMES] [SEED]
@@ -33,14 +34,16 @@ sim c 3 30
 sim a0 1 0
 sim b0 2 0 --reverse
 sim c0 3 0
-sim probe 4 30 --lidar vlp16 --reverse
+sim probe 4 30 --reverse
 [ -f world.pcd ] || "$bin/pl-sim" --route loop --seed "$seed" --frames "$frames" --out world-drive --force --map-out world.pcd >/dev/null
 
 echo "== the merges at true poses"
 three="--dataset a --dataset b --dataset c"
-"$bin/pl-map" build $three --poses gt --moving keep --out plain.pcd >/dev/null
-"$bin/pl-map" build $three --poses gt --report cleaned.json --out cleaned.pcd | grep "moving things"
-"$bin/pl-map" build --dataset a0 --dataset b0 --dataset c0 --poses gt --moving keep --out free.pcd >/dev/null
+# (A map already in DIR is kept: delete DIR to measure again from scratch.)
+[ -f plain.pcd ] || "$bin/pl-map" build $three --poses gt --moving keep --out plain.pcd >/dev/null
+[ -f cleaned.pcd ] || "$bin/pl-map" build $three --poses gt --moving remove --report cleaned.json --out cleaned.pcd >cleaned.log
+grep "moving things" cleaned.log
+[ -f free.pcd ] || "$bin/pl-map" build --dataset a0 --dataset b0 --dataset c0 --poses gt --moving keep --out free.pcd >/dev/null
 
 off() {  # MAP: points farther than 0.3 m from the world's surfaces
   "$bin/pl-eval" map --map "$1" --ref world.pcd --within 0.3 --json |
@@ -70,7 +73,7 @@ print(f"ghosts (off-surface points beyond the traffic-free merge's): plain {ghos
 print(f"static structure kept: {100*ck:.2f} % of the traffic-free merge (goal >= 98 %); the plain merge keeps {100*pk:.2f} %")
 EOF
 
-echo "== a fourth drive (16 beams, its own traffic) localized on each map"
+echo "== a fourth drive (16 of 64 beams, its own traffic) localized on each map"
 localize() {  # MAP NAME
   rm -f "$2.sqlite"*
   "$bin/pl-map" tile --cloud "$1" --db "$2.sqlite" --map town >/dev/null

@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
   pl::cli::number(app, "--speed-scale", o.speed_scale, "drive the route this many times as fast, scans still at 10 Hz "
                   "(the town loop's 9 m/s straights at 30 m/s: 3.3)", pl::cli::between(0.1, 10));
   app.add_flag("--reverse", o.reverse, "drive the route the other way round: the stretch the other options give, from its "
-               "end back to its start, through the same world (same --seed, same things and --map-out cloud)");
+               "end back to its start, through the same world (the same seed gives the same things and reference cloud)");
   pl::cli::output_folder(app, "--out", o.out_dir, "where to write the dataset")->required();
   pl::cli::number(app, "--frames", o.frames, "scans to write; 0: the whole route", pl::cli::at_least(0));
   pl::cli::number(app, "--seed", o.world.seed, "world and noise seed; same seed and options, same bytes", pl::cli::at_least(0));
