@@ -11,6 +11,7 @@
 
 #include "pl/client/change_evidence.hpp"
 #include "pl/common/error.hpp"
+#include "ray_box.hpp"
 
 namespace {
 
@@ -36,20 +37,7 @@ struct Scene {
       if (t > 0 && t < best) best = t, hit = true;
     }
     for (const Box& b : boxes) {
-      double t0 = 0, t1 = best;
-      bool miss = false;
-      for (int k = 0; k < 3 && !miss; ++k) {
-        if (std::abs(d[k]) < 1e-12) {
-          miss = o[k] < b.lo[k] || o[k] > b.hi[k];
-          continue;
-        }
-        double a = (b.lo[k] - o[k]) / d[k], c = (b.hi[k] - o[k]) / d[k];
-        if (a > c) std::swap(a, c);
-        t0 = std::max(t0, a);
-        t1 = std::min(t1, c);
-        miss = t0 > t1;
-      }
-      if (!miss && t0 > 0 && t0 < best) best = t0, hit = true;
+      if (const auto t = pl::test::ray_enters_box(o, d, b.lo, b.hi, best)) best = *t, hit = true;
     }
     if (!hit) return std::nullopt;
     return best;

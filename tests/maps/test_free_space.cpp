@@ -18,6 +18,7 @@
 #include "pl/common/voxel.hpp"
 #include "pl/maps/free_space.hpp"
 #include "pl/registration/normals.hpp"
+#include "ray_box.hpp"
 
 namespace {
 
@@ -48,20 +49,7 @@ std::optional<Hit> cast(const std::vector<Box>& boxes, const Eigen::Vector3d& o,
     if (t > 0 && t < limit) best = Hit{t, kGround}, limit = t;
   }
   for (const Box& b : boxes) {
-    double t0 = 0, t1 = limit;
-    bool miss = false;
-    for (int k = 0; k < 3 && !miss; ++k) {
-      if (std::abs(d[k]) < 1e-12) {
-        miss = o[k] < b.lo[k] || o[k] > b.hi[k];
-        continue;
-      }
-      double a = (b.lo[k] - o[k]) / d[k], c = (b.hi[k] - o[k]) / d[k];
-      if (a > c) std::swap(a, c);
-      t0 = std::max(t0, a);
-      t1 = std::min(t1, c);
-      miss = t0 > t1;
-    }
-    if (!miss && t0 > 0 && t0 < limit) best = Hit{t0, b.label}, limit = t0;
+    if (const auto t = pl::test::ray_enters_box(o, d, b.lo, b.hi, limit)) best = Hit{*t, b.label}, limit = *t;
   }
   return best;
 }
