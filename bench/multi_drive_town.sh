@@ -106,10 +106,10 @@ build() {  # TAG DRIVES... : LiDAR odometry + GPS + loops
     --out "$tag.pcd" >"$tag.log"
   t1=$(date +%s.%N)
   local scans=$(( $# * frames ))
-  local row="$tag: $# drives, $(python3 -c "print(f'{1000*($t1-$t0)/$scans:.1f}')") ms a scan (whole process)"
+  local row="$tag: $# drives, $(python3 -c "print('%.1f' % (1000 * ($t1 - $t0) / $scans))") ms a scan (whole process)"
   for d in "$@"; do
     "$bin/pl-eval" ape --est "$tag.$d.txt" --gt "$d/poses.txt" --json >"$tag.$d.ape"
-    row+="; $d APE mean $(python3 -c 'import json,sys; print(f"{json.load(open(sys.argv[1]))["mean"]:.3f}")' "$tag.$d.ape") m"
+    row+="; $d APE mean $(python3 -c 'import json,sys; print("%.3f" % json.load(open(sys.argv[1]))["mean"])' "$tag.$d.ape") m"
   done
   echo "$row; loops $(python3 -c 'import json,sys; r=json.load(open(sys.argv[1])); print([d.get("loops_to") for d in r["drives"]])' "$tag.json")"
 }
