@@ -32,12 +32,7 @@ void add_build(cli::Tool& tool, std::ostream& out) {
     if (!s->odometry_out.empty() && s->cfg.poses != PoseSource::Lidar)
       throw pl::Error("--odometry-out needs --poses lidar (with --poses gt no odometry runs)");
     const GloamOutputs outputs{s->out, s->report, s->traj_out, s->odometry_out};
-    if (!outputs.trajectories.empty() && outputs.trajectories.size() != s->datasets.size())
-      throw pl::Error(format_text("--traj-out: %zu given for %zu drives (one per --dataset, in the same order)", outputs.trajectories.size(),
-                                  s->datasets.size()));
-    if (!outputs.odometry.empty() && outputs.odometry.size() != s->datasets.size())
-      throw pl::Error(format_text("--odometry-out: %zu given for %zu drives (one per --dataset, in the same order)", outputs.odometry.size(),
-                                  s->datasets.size()));
+    check_gloam_outputs(outputs, s->datasets.size());
     std::vector<pl::Dataset> datasets;
     datasets.reserve(s->datasets.size());
     for (const std::string& path : s->datasets) datasets.push_back(pl::open_dataset(path, s->topics));

@@ -431,15 +431,19 @@ GloamResult build_gloam_map(const Dataset& ds, const GloamConfig& cfg, const Glo
   return build_gloam_map(std::vector<const Dataset*>{&ds}, cfg, observer);
 }
 
-std::string write_gloam_outputs(const GloamResult& r, const GloamOutputs& o) {
-  std::string out;
-  const std::size_t n = r.drives.size();
+void check_gloam_outputs(const GloamOutputs& o, std::size_t drives) {
   auto per_drive = [&](const std::vector<std::string>& paths, const char* option) {
-    if (!paths.empty() && paths.size() != n)
-      throw Error(format_text("%s: %zu given for %zu drives (one per --dataset, in the same order)", option, paths.size(), n));
+    if (!paths.empty() && paths.size() != drives)
+      throw Error(format_text("%s: %zu given for %zu drives (one per --dataset, in the same order)", option, paths.size(), drives));
   };
   per_drive(o.trajectories, "--traj-out");
   per_drive(o.odometry, "--odometry-out");
+}
+
+std::string write_gloam_outputs(const GloamResult& r, const GloamOutputs& o) {
+  std::string out;
+  const std::size_t n = r.drives.size();
+  check_gloam_outputs(o, n);
   // KITTI, or TUM with the scan times when the name ends in .tum.
   auto write_poses = [](const std::string& path, const Trajectory& t) {
     const bool tum = path.size() > 4 && path.compare(path.size() - 4, 4, ".tum") == 0;

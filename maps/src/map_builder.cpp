@@ -51,24 +51,21 @@ VoxelAccumulator::VoxelAccumulator(double voxel) : inv_(1.0 / voxel) {
 }
 
 
-void VoxelAccumulator::add(const Eigen::Vector3d& p, float intensity) {
+VoxelAccumulator::Sum& VoxelAccumulator::accumulate(const Eigen::Vector3d& p, float intensity) {
   auto [it, fresh] = index_.try_emplace(voxel_index(p, inv_), static_cast<std::uint32_t>(sums_.size()));
   if (fresh) {
     sums_.push_back({p.x(), p.y(), p.z(), intensity, 1});
-  } else {
-    Sum& s = sums_[it->second];
-    s.x += p.x(), s.y += p.y(), s.z += p.z(), s.i += intensity, ++s.n;
-  }
-}
-
-void VoxelAccumulator::add(const Eigen::Vector3d& p, float intensity, std::uint32_t scan, unsigned drive) {
-  auto [it, fresh] = index_.try_emplace(voxel_index(p, inv_), static_cast<std::uint32_t>(sums_.size()));
-  if (fresh) sums_.push_back({p.x(), p.y(), p.z(), intensity, 1});
-  else {
-    Sum& s = sums_[it->second];
-    s.x += p.x(), s.y += p.y(), s.z += p.z(), s.i += intensity, ++s.n;
+    return sums_.back();
   }
   Sum& s = sums_[it->second];
+  s.x += p.x(), s.y += p.y(), s.z += p.z(), s.i += intensity, ++s.n;
+  return s;
+}
+
+void VoxelAccumulator::add(const Eigen::Vector3d& p, float intensity) { accumulate(p, intensity); }
+
+void VoxelAccumulator::add(const Eigen::Vector3d& p, float intensity, std::uint32_t scan, unsigned drive) {
+  Sum& s = accumulate(p, intensity);
   if (s.last_scan != scan) s.last_scan = scan, ++s.scans;
   s.drives |= std::uint64_t{1} << (drive & 63u);
 }

@@ -95,6 +95,8 @@ struct GloamOutputs {
   std::string map_pcd, report;
   std::vector<std::string> trajectories, odometry;
 };
+// pl::Error for a number of trajectory or odometry paths other than `drives` (none is fine).
+void check_gloam_outputs(const GloamOutputs& out, std::size_t drives);
 // Writes the odometry's trajectories, the report and the trajectories (KITTI, or TUM with the scan
 // times when the name ends in .tum), then the map (PCD with its origin) and its places; returns a
 // "wrote ..." line for each. Throws pl::Error for odometry paths when no odometry ran, and for a

@@ -36,6 +36,7 @@ class VoxelAccumulator {
     std::uint32_t scans = 0, last_scan = 0;
     std::uint64_t drives = 0;
   };
+  Sum& accumulate(const Eigen::Vector3d& p, float intensity);  // the point added to its voxel's sums
   double inv_;
   std::unordered_map<VoxelIndex, std::uint32_t, VoxelIndexHash> index_;
   std::vector<Sum> sums_;
