@@ -20,26 +20,8 @@ mkdir -p "$work/multi-k05"
 d=$(cd "$work/multi-k05" && pwd)
 export PL_NO_PROGRESS=1
 
-"$bin/pl-dataset" poses "$drive" --out "$d/oxts.txt" >/dev/null
-"$bin/pl-dataset" degrade-gps "$drive" --out "$d/consumer" --rate 1 --sigma 1.5 --seed 1 >/dev/null
-# half NAME FIRST LAST: the consumer drive's scans FIRST..LAST (KITTI raw reads any subset of frames).
-half() {
-  local h="$d/$1"
-  rm -rf "$h"
-  mkdir -p "$h/velodyne_points/data" "$h/oxts/data"
-  ln -s "$drive/calib_imu_to_velo.txt" "$h/"
-  ln -s "$drive/oxts/timestamps.txt" "$drive/oxts/dataformat.txt" "$h/oxts/"
-  [ -f "$drive/velodyne_points/timestamps.txt" ] && ln -s "$drive/velodyne_points/timestamps.txt" "$h/velodyne_points/"
-  cp "$d/consumer/gps.csv" "$h/"
-  for i in $(seq "$2" "$3"); do
-    local f
-    f=$(printf '%010d' "$i")
-    ln -s "$drive/velodyne_points/data/$f.bin" "$h/velodyne_points/data/"
-    ln -s "$drive/oxts/data/$f.txt" "$h/oxts/data/"
-  done
-}
-half first 0 76
-half second 77 153
+source "$root/bench/k05_halves.sh"
+k05_halves "$bin" "$drive" "$d"
 
 ape() {
   "$bin/pl-eval" ape --json --est "$1" --gt "$2" |

@@ -71,6 +71,18 @@ echo "== gloam_kitti05: G-LOAM on real data, KITTI raw drive 0005 with a consume
 bash "$(dirname "$0")/gloam_kitti05.sh" "$bin" "$root/build/bench"
 
 echo
+echo "== multi_drive_town: a town mapped from three drives with traffic: ghosts, static structure kept, the localizer on the map; 1 to 3 drives"
+bash "$(dirname "$0")/multi_drive_town.sh" "$bin" "$root/build/bench/multi_drive_town"
+
+echo
+echo "== multi_drive_kitti05: drive 0005 cut in two and built as two drives, against the whole drive (real data)"
+bash "$(dirname "$0")/multi_drive_kitti05.sh" "$bin" "$root/build/bench"
+
+echo
+echo "== add_drive: a drive added to a published map (--base-map) against the map built anew: tiles rebuilt and byte-identical"
+bash "$(dirname "$0")/add_drive.sh" "$bin" "$root/build/bench"
+
+echo
 echo "== recordings_kitti05: drive 0005 as a ROS 1 bag (rosbag), a ROS 2 bag and MCAP, against the folder; reading speed"
 bash "$(dirname "$0")/recordings_kitti05.sh" "$bin" "$root/build/bench"
 

@@ -11,6 +11,7 @@
 #include "pl/common/progress.hpp"
 #include "pl/common/text.hpp"
 #include "pl/maps/catalog.hpp"
+#include "pl/maps/drive_record.hpp"
 #include "pl/maps/gloam.hpp"
 #include "pl/maps/import.hpp"
 #include "pl/recordings/dataset_cli.hpp"
@@ -21,7 +22,7 @@ namespace pl::maps {
 void add_build(cli::Tool& tool, std::ostream& out) {
   struct State {
     std::vector<std::string> datasets, traj_out, odometry_out;
-    std::string out, report;
+    std::string out, report, base_map;
     pl::DatasetOptions topics;
     GloamConfig cfg;
   };
@@ -33,9 +34,28 @@ void add_build(cli::Tool& tool, std::ostream& out) {
       throw pl::Error("--odometry-out needs --poses lidar (with --poses gt no odometry runs)");
     const GloamOutputs outputs{s->out, s->report, s->traj_out, s->odometry_out};
     check_gloam_outputs(outputs, s->datasets.size());
+    // A base map's drives come first, opened again from where its record says they were.
+    GloamBase base;
+    std::vector<std::string> paths;
+    if (!s->base_map.empty()) {
+      const DriveRecord record = read_drive_record(drive_record_path(s->base_map));
+      check_same_merge(record, s->cfg.merge, s->base_map);
+      for (const RecordedDrive& d : record.drives) {
+        paths.push_back(d.dataset);
+        base.poses.push_back(d.poses);
+        base.deskew.push_back(d.deskew);
+      }
+      base.origin = record.origin;
+    }
+    paths.insert(paths.end(), s->datasets.begin(), s->datasets.end());
     std::vector<pl::Dataset> datasets;
-    datasets.reserve(s->datasets.size());
-    for (const std::string& path : s->datasets) datasets.push_back(pl::open_dataset(path, s->topics));
+    datasets.reserve(paths.size());
+    for (std::size_t d = 0; d < paths.size(); ++d) {
+      if (d < base.poses.size() && !pl::file_exists(paths[d]) && !pl::dir_exists(paths[d]))
+        throw pl::Error(paths[d] + ": the base map's drive " + std::to_string(d + 1) + " is not there: adding a drive reads the "
+                        "base map's drives again; put it back at that path (or build the whole map anew without --base-map)");
+      datasets.push_back(pl::open_dataset(paths[d], s->topics));
+    }
     std::vector<const pl::Dataset*> drives;
     for (const pl::Dataset& ds : datasets) drives.push_back(&ds);
     pl::StageProgress bars;
@@ -45,7 +65,7 @@ void add_build(cli::Tool& tool, std::ostream& out) {
       bars.finish();
       out << line << '\n';
     };
-    const GloamResult r = build_gloam_map(drives, s->cfg, observer);
+    const GloamResult r = build_gloam_map(drives, s->cfg, observer, base);
     bars.finish();
     out << write_gloam_outputs(r, outputs);
     return 0;
@@ -53,7 +73,10 @@ void add_build(cli::Tool& tool, std::ostream& out) {
   MapBuildConfig& merge = s->cfg.merge;
   cli::datasets_option(c, s->datasets, s->topics, "a drive to build the map from; repeat it for a map of several drives (any mix "
                        "of folders and recordings), placed by one pose graph with loops between them");
-  cli::output_file(c, "--out", s->out, "where to write the map (PCD)")->required();
+  cli::output_file(c, "--out", s->out, "where to write the map (PCD; its places and drive record beside it)")->required();
+  c.add_option("--base-map", s->base_map, "add the --dataset drives to this map (a PCD pl-map build wrote, its MAP.drives.json "
+               "beside it): its drives stay where they are, merged again first, so that tiles the new drives do not reach keep "
+               "their bytes in pl-map tile")->type_name("MAP");
   cli::choice(c, "--poses", s->cfg.poses, "gt: the dataset's ground truth; lidar: LiDAR odometry (without --gps started at "
               "the first ground-truth pose when there is one)", {{"gt", PoseSource::GroundTruth}, {"lidar", PoseSource::Lidar}});
   c.add_flag("--gps", s->cfg.gps, "(with --poses lidar) a pose graph of keyframes over the odometry with the drive's GPS fixes "

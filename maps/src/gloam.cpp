@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <optional>
@@ -16,6 +17,7 @@
 #include "pl/common/error.hpp"
 #include "pl/common/scan.hpp"
 #include "pl/common/text.hpp"
+#include "pl/maps/drive_record.hpp"
 #include "pl/maps/import.hpp"
 #include "pl/registration/normals.hpp"
 #include "pl/registration/place_index.hpp"
@@ -117,6 +119,7 @@ DriveOdometry run_odometry(const Dataset& ds, const GloamConfig& cfg, const Pose
   Pose last_keyframe = Pose::Identity();
   ScanPrepConfig loop_prep = cfg.merge.scan;
   loop_prep.voxel_m = cfg.loop_voxel_m;
+  Frame first;
   for (std::size_t i = 0; i < ds.size(); ++i) {
     Frame frame = ds.load_frame(i);
     LoamFrame f = odometry.add(frame.scan, frame.rings, ds.times[i]);
@@ -124,18 +127,47 @@ DriveOdometry run_odometry(const Dataset& ds, const GloamConfig& cfg, const Pose
     out.information.push_back(f.information);
     ms.push_back(f.ms);
     out.degenerate += f.degenerate;
-    if (cfg.loops && (i == 0 || is_new_keyframe(last_keyframe, f.pose, cfg.graph))) {
-      last_keyframe = f.pose;
-      const double dt = i > 0 ? ds.times[i] - ds.times[i - 1] : 0.0;
-      if (deskew_clouds && dt > 0)  // the motion since the last scan, as a constant velocity
-        compensate_sweep(frame.scan, frame.times, scale_motion(out.poses[i - 1].inverse() * f.pose, sweep_s / dt), sweep_s);
-      out.keyframe_clouds.push_back(to_points(prepare_scan(frame.scan, {}, loop_prep)));
+    // A keyframe's cloud, corrected by the motion since the scan before as a constant velocity; the
+    // first scan's by the motion to the second, once that is known.
+    auto keep = [&](Frame& kf, std::size_t a, std::size_t b) {
+      const double dt = b > a ? ds.times[b] - ds.times[a] : 0.0;
+      if (deskew_clouds && dt > 0)
+        compensate_sweep(kf.scan, kf.times, scale_motion(out.poses[a].inverse() * out.poses[b], sweep_s / dt), sweep_s);
+      out.keyframe_clouds.push_back(to_points(prepare_scan(kf.scan, {}, loop_prep)));
+    };
+    if (cfg.loops && i == 1) keep(first, 0, 1);
+    if (cfg.loops && i == 0) {
+      first = std::move(frame);
+      if (ds.size() == 1) keep(first, 0, 0);
+    } else if (cfg.loops && is_new_keyframe(last_keyframe, f.pose, cfg.graph)) {
+      keep(frame, i - 1, i);
     }
+    if (i == 0 || is_new_keyframe(last_keyframe, f.pose, cfg.graph)) last_keyframe = f.pose;
     tell.progress(stage, i + 1, ds.size());
   }
   std::sort(ms.begin(), ms.end());
   out.median_ms = ms.empty() ? 0.0 : ms[ms.size() / 2];
   return out;
+}
+
+// The loop-closure clouds of a base map's drive at the graph's keyframes: read again, corrected for the
+// sweep by the motion from the scan before, as run_odometry keeps them for a drive it runs.
+std::vector<std::vector<Eigen::Vector3f>> fixed_keyframe_clouds(const Dataset& ds, const PoseList& poses,
+                                                                const std::vector<std::size_t>& keyframes, const GloamConfig& cfg) {
+  const bool deskew_clouds = merge_deskews(cfg, ds);
+  const double sweep_s = ds.meta.sensor.rate_hz > 0 ? 1.0 / ds.meta.sensor.rate_hz : cfg.merge.sweep_s;
+  ScanPrepConfig loop_prep = cfg.merge.scan;
+  loop_prep.voxel_m = cfg.loop_voxel_m;
+  std::vector<std::vector<Eigen::Vector3f>> clouds;
+  for (std::size_t i : keyframes) {
+    Frame frame = ds.load_frame(i);
+    const std::size_t a = i > 0 ? i - 1 : 0, b = i > 0 ? i : std::min<std::size_t>(1, ds.size() - 1);
+    const double dt = ds.times[b] - ds.times[a];
+    if (deskew_clouds && dt > 0)
+      compensate_sweep(frame.scan, frame.times, scale_motion(poses[a].inverse() * poses[b], sweep_s / dt), sweep_s);
+    clouds.push_back(to_points(prepare_scan(frame.scan, {}, loop_prep)));
+  }
+  return clouds;
 }
 
 // A drive's world frame in the map's (the first drive's): both datasets' projections of the same
@@ -172,20 +204,25 @@ double mean_error(const PoseList& poses, const PoseList& truth) {
 // drive's odometry before the graph (moved as a whole to start where the graph put its first scan).
 std::vector<Trajectory> lidar_poses(const std::vector<const Dataset*>& drives, const GloamConfig& cfg,
                                     const std::vector<std::vector<GpsEdge>>& gps, const std::vector<PoseList>& truth,
-                                    std::optional<GeoPoint>& origin, nlohmann::json& report, const Tell& tell,
-                                    std::vector<Trajectory>& odometry_out) {
-  const std::size_t n = drives.size();
+                                    const GloamBase& base, std::optional<GeoPoint>& origin, nlohmann::json& report,
+                                    const Tell& tell, std::vector<Trajectory>& odometry_out) {
+  const std::size_t n = drives.size(), nb = base.poses.size();
   // Without GPS the first drive starts at its first ground-truth pose when there is one, so that the
   // map lies in the dataset's world frame; otherwise in its first scan's frame, which has no geodetic
   // origin. With GPS the ground truth is not used at all. Other drives start in their own frame: the
-  // fixes or the loops place them.
-  const bool start_at_truth = !truth[0].empty() && !cfg.gps;
-  if (!start_at_truth) origin.reset();
+  // fixes or the loops place them. A base map's drives hold its frame and are not run again.
+  const bool start_at_truth = nb == 0 && !truth[0].empty() && !cfg.gps;
+  if (nb == 0 && !start_at_truth) origin.reset();
   std::vector<DriveOdometry> runs(n);
   const auto t_start = std::chrono::steady_clock::now();
   std::size_t scans = 0;
   for (std::size_t d = 0; d < n; ++d) {
     const Dataset& ds = *drives[d];
+    if (d < nb) {
+      runs[d].poses = base.poses[d].poses;
+      report["drives"][d]["fixed"] = true;
+      continue;
+    }
     const std::string stage = n > 1 ? format_text("lidar odometry, drive %zu of %zu", d + 1, n) : "lidar odometry";
     runs[d] = run_odometry(ds, cfg, d == 0 && start_at_truth ? truth[0][0] : Pose::Identity(), stage, tell);
     scans += ds.size();
@@ -203,12 +240,12 @@ std::vector<Trajectory> lidar_poses(const std::vector<const Dataset*>& drives, c
       dj["mean_error_before_m"] = mean_error(from_truth.poses, truth[d]);
     }
   }
-  report["odometry"] = {{"median_ms", runs[0].median_ms}, {"degenerate", runs[0].degenerate}, {"deskew", runs[0].deskew}};
+  report["odometry"] = {{"median_ms", runs[nb].median_ms}, {"degenerate", runs[nb].degenerate}, {"deskew", runs[nb].deskew}};
   std::vector<Trajectory> placed(n);
   odometry_out.assign(n, {});
   for (std::size_t d = 0; d < n; ++d) {
     placed[d].poses = runs[d].poses;
-    odometry_out[d].poses = runs[d].poses;
+    if (d >= nb) odometry_out[d].poses = runs[d].poses;
   }
   if (cfg.gps || cfg.loops) {
     std::vector<GraphDrive> chains(n);
@@ -217,18 +254,27 @@ std::vector<Trajectory> lidar_poses(const std::vector<const Dataset*>& drives, c
       chains[d].information = runs[d].information;
       chains[d].gps = gps[d];
       chains[d].lever_arm = drives[d]->meta.vehicle.gps_lever_arm;
+      chains[d].fixed = d < nb;
     }
     PoseGraph graph(chains, cfg.graph);
     graph.optimize();
     if (cfg.gps) {
-      origin = drives[0]->meta.origin;  // the fixes set the world frame: the map keeps the first dataset's origin
-      for (std::size_t d = 0; d < n; ++d)
+      if (nb == 0) origin = drives[0]->meta.origin;  // the fixes set the world frame: the map keeps the first dataset's origin
+      for (std::size_t d = nb; d < n; ++d)
         if (!truth[d].empty()) report["drives"][d]["mean_error_gps_m"] = mean_error(graph.poses(d), truth[d]);
     }
     if (cfg.loops) {
       std::vector<std::vector<Eigen::Vector3f>> clouds;
-      for (DriveOdometry& r : runs)
-        for (auto& c : r.keyframe_clouds) clouds.push_back(std::move(c));
+      for (std::size_t d = 0; d < n; ++d) {
+        if (d < nb) {
+          const auto begin = graph.keyframes().begin();
+          const std::vector<std::size_t> keys(begin + static_cast<std::ptrdiff_t>(graph.first_keyframe(d)),
+                                              begin + static_cast<std::ptrdiff_t>(d + 1 < n ? graph.first_keyframe(d + 1)
+                                                                                            : graph.keyframes().size()));
+          runs[d].keyframe_clouds = fixed_keyframe_clouds(*drives[d], runs[d].poses, keys, cfg);
+        }
+        for (auto& c : runs[d].keyframe_clouds) clouds.push_back(std::move(c));
+      }
       const std::size_t keyframes = graph.keyframes().size();
       const LoopReport lr = close_loops(graph, clouds, cfg.loop,
                                         [&](std::size_t done, std::size_t) { tell.progress("loop closure", done, keyframes); });
@@ -254,11 +300,13 @@ std::vector<Trajectory> lidar_poses(const std::vector<const Dataset*>& drives, c
                     (cfg.loops ? "was found to the other drives" : "was looked for (--loops)") +
                     "; build it with a drive that passes the same places, or with its GPS");
     const PoseGraphReport r = graph.report();
-    for (std::size_t d = 0; d < n; ++d) {
+    for (std::size_t d = nb; d < n; ++d) {
       placed[d].poses = graph.poses(d);
       // The odometry started in its own frame: moved as a whole to start where the graph put the first scan.
       const Pose to_graph = placed[d].poses.front() * odometry_out[d].poses.front().inverse();
       for (Pose& p : odometry_out[d].poses) p = to_graph * p;
+    }
+    for (std::size_t d = 0; d < n; ++d) {
       const PoseGraphDriveReport& dr = r.drives[d];
       nlohmann::json& dj = report["drives"][d];
       dj["keyframes"] = dr.keyframes;
@@ -337,15 +385,30 @@ void check_gloam_config(const GloamConfig& cfg) {
   if (!(cfg.loop_voxel_m > 0)) throw Error("the loop-closure voxel must be above 0 m");
 }
 
-GloamResult build_gloam_map(const std::vector<const Dataset*>& drives, const GloamConfig& cfg, const GloamObserver& observer) {
+GloamResult build_gloam_map(const std::vector<const Dataset*>& drives, const GloamConfig& cfg, const GloamObserver& observer,
+                            const GloamBase& base) {
   check_gloam_config(cfg);
   const Tell tell{observer};
-  if (drives.empty()) throw Error("a map needs at least one drive (--dataset)");
-  if (drives.size() > 64) throw Error(format_text("a map is built from at most 64 drives, not %zu", drives.size()));
-  const std::size_t n = drives.size();
+  const std::size_t n = drives.size(), nb = base.poses.size();
+  if (n <= nb) throw Error("a map needs at least one drive (--dataset)" + std::string(nb > 0 ? " besides the base map's" : ""));
+  if (n > 64) throw Error(format_text("a map is built from at most 64 drives, not %zu", n));
+  for (std::size_t d = 0; d < nb; ++d) {
+    if (base.poses[d].size() != drives[d]->size() || base.poses[d].times != drives[d]->times)
+      throw Error(format_text("%s: the base map's drive %zu had %zu scans at other times than the %zu it has now: the dataset "
+                              "changed since the base map was built; build the whole map anew without --base-map",
+                              drives[d]->dir.c_str(), d + 1, base.poses[d].size(), drives[d]->size()));
+    if (d < base.deskew.size() && base.deskew[d] != merge_deskews(cfg, *drives[d]))
+      throw Error(format_text("%s: the base map merged this drive with motion compensation %s: give the --deskew it was built "
+                              "with (auto, on or off) so that its tiles keep their points",
+                              drives[d]->dir.c_str(), base.deskew[d] ? "on" : "off"));
+  }
+  if (nb > 0 && !base.origin && (cfg.gps || cfg.poses == PoseSource::GroundTruth))
+    throw Error("the base map has no geodetic origin (it was built from LiDAR odometry alone, in its first scan's frame): "
+                "a new drive's " + std::string(cfg.gps ? "GPS fixes" : "ground truth") + " cannot be placed on it; add the drive "
+                "with --poses lidar --loops");
   if (n > 1 && cfg.poses == PoseSource::Lidar && !cfg.gps && !cfg.loops)
-    throw Error("several drives with --poses lidar need --gps or --loops: nothing else places the second drive (" +
-                drives[1]->dir + ") on the first");
+    throw Error("several drives with --poses lidar need --gps or --loops: nothing else places the " +
+                std::string(nb > 0 ? "new drive (" + drives[nb]->dir + ") on the base map's" : "second drive (" + drives[1]->dir + ") on the first"));
   // Each drive's world frame in the map's; its ground truth and fixes brought into it.
   std::vector<std::optional<Pose>> frames(n);
   std::vector<PoseList> truth(n);
@@ -354,7 +417,7 @@ GloamResult build_gloam_map(const std::vector<const Dataset*>& drives, const Glo
     const Dataset& ds = *drives[d];
     if (ds.size() == 0) throw Error(ds.dir + ": no scans");
     frames[d] = frame_in_map(ds, *drives[0]);
-    if (cfg.poses == PoseSource::GroundTruth) {
+    if (cfg.poses == PoseSource::GroundTruth && d >= nb) {
       if (!ds.has_ground_truth()) throw Error(ds.dir + ": --poses gt needs ground-truth poses (poses.txt or OXTS)");
       if (!frames[d])
         throw Error(ds.dir + ": its ground truth cannot be placed in the map's frame (" + drives[0]->dir +
@@ -362,7 +425,7 @@ GloamResult build_gloam_map(const std::vector<const Dataset*>& drives, const Glo
     }
     if (ds.has_ground_truth() && frames[d])
       for (const Pose& p : ds.ground_truth.poses) truth[d].push_back(*frames[d] * p);
-    if (cfg.gps) {
+    if (cfg.gps && d >= nb) {
       if (ds.gps.empty() && !(cfg.loops && n > 1))
         throw Error(ds.dir + ": --gps needs GPS fixes (gps.csv or OXTS), and the drive has none" +
                     std::string(n > 1 ? " (with --loops, a drive without GPS is joined by its loops)" : ""));
@@ -383,19 +446,21 @@ GloamResult build_gloam_map(const std::vector<const Dataset*>& drives, const Glo
   report["poses"] = cfg.poses == PoseSource::GroundTruth ? "gt" : "lidar";
   report["drives"] = nlohmann::json::array();
   for (const Dataset* ds : drives) report["drives"].push_back({{"dataset", ds->dir}, {"scans", ds->size()}});
-  result.origin = drives[0]->meta.origin;
+  result.origin = nb > 0 ? base.origin : drives[0]->meta.origin;
+  result.base_drives = nb;
   std::vector<Trajectory> poses(n), odometry(n);
   if (cfg.poses == PoseSource::GroundTruth)
-    for (std::size_t d = 0; d < n; ++d) poses[d].poses = truth[d];
+    for (std::size_t d = 0; d < n; ++d) poses[d].poses = d < nb ? base.poses[d].poses : truth[d];
   else
-    poses = lidar_poses(drives, cfg, gps, truth, result.origin, report, tell, odometry);
+    poses = lidar_poses(drives, cfg, gps, truth, base, result.origin, report, tell, odometry);
+  for (std::size_t d = 0; d < nb; ++d) report["drives"][d]["fixed"] = true;
   // Errors against ground truth, per drive and over every scan.
   double before = 0, after = 0;
   std::size_t with_truth = 0;
   for (std::size_t d = 0; d < n; ++d) {
     poses[d].times = drives[d]->times;
     if (!odometry[d].poses.empty()) odometry[d].times = drives[d]->times;
-    if (truth[d].empty() || cfg.poses == PoseSource::GroundTruth) continue;
+    if (truth[d].empty() || cfg.poses == PoseSource::GroundTruth || d < nb) continue;
     const double e = mean_error(poses[d].poses, truth[d]);
     report["drives"][d]["mean_error_after_m"] = e;
     after += e * static_cast<double>(truth[d].size());
@@ -418,12 +483,14 @@ GloamResult build_gloam_map(const std::vector<const Dataset*>& drives, const Glo
     result.merged_scans += (ds.size() + cfg.merge.every - 1) / cfg.merge.every;
   }
   result.voxel_m = cfg.merge.voxel_m;
+  result.merge = cfg.merge;
   const std::size_t merged = result.merged_scans;
   result.map = build_map_from_drives(placed, cfg.merge, [&](std::size_t done, std::size_t) { tell.progress("merging scans", done, merged); });
   if (cfg.remove_moving) report["moving"] = remove_moving(result.map, placed, cfg, tell);
   if (n > 1) report["tiles"] = tile_sources(result.map, n);
   result.report_json = report.dump(2) + "\n";
-  for (std::size_t d = 0; d < n; ++d) result.drives.push_back({drives[d]->dir, std::move(poses[d]), std::move(odometry[d])});
+  for (std::size_t d = 0; d < n; ++d)
+    result.drives.push_back({drives[d]->dir, std::move(poses[d]), std::move(odometry[d]), placed[d].deskew, placed[d].sweep_s});
   return result;
 }
 
@@ -440,9 +507,25 @@ void check_gloam_outputs(const GloamOutputs& o, std::size_t drives) {
   per_drive(o.odometry, "--odometry-out");
 }
 
+namespace {
+
+DriveRecord drive_record_of(const GloamResult& r) {
+  DriveRecord record;
+  record.origin = r.origin;
+  record.merge = r.merge;
+  for (const GloamDrive& d : r.drives) {
+    std::error_code ec;
+    const std::filesystem::path path = std::filesystem::absolute(d.dataset, ec);
+    record.drives.push_back({ec ? d.dataset : path.lexically_normal().string(), d.poses, d.merge_deskew, d.sweep_s});
+  }
+  return record;
+}
+
+}  // namespace
+
 std::string write_gloam_outputs(const GloamResult& r, const GloamOutputs& o) {
   std::string out;
-  const std::size_t n = r.drives.size();
+  const std::size_t nb = r.base_drives, n = r.drives.size() - nb;  // the drives written: those after the base map's
   check_gloam_outputs(o, n);
   // KITTI, or TUM with the scan times when the name ends in .tum.
   auto write_poses = [](const std::string& path, const Trajectory& t) {
@@ -450,10 +533,11 @@ std::string write_gloam_outputs(const GloamResult& r, const GloamOutputs& o) {
     write_trajectory(path, t, tum ? PoseFormat::Tum : PoseFormat::Kitti);
   };
   for (std::size_t d = 0; d < o.odometry.size(); ++d) {
-    if (r.drives[d].odometry.poses.empty()) throw Error("--odometry-out needs --poses lidar (with --poses gt no odometry runs)");
-    write_poses(o.odometry[d], r.drives[d].odometry);
+    const GloamDrive& drive = r.drives[nb + d];
+    if (drive.odometry.poses.empty()) throw Error("--odometry-out needs --poses lidar (with --poses gt no odometry runs)");
+    write_poses(o.odometry[d], drive.odometry);
     out += format_text("wrote %s: %zu LiDAR poses (lidar odometry, before any pose graph), one per scan\n", o.odometry[d].c_str(),
-                       r.drives[d].odometry.poses.size());
+                       drive.odometry.poses.size());
   }
   if (!o.report.empty()) {
     std::ofstream f(o.report);
@@ -462,14 +546,15 @@ std::string write_gloam_outputs(const GloamResult& r, const GloamOutputs& o) {
     out += "wrote " + o.report + "\n";
   }
   for (std::size_t d = 0; d < o.trajectories.size(); ++d) {
-    write_poses(o.trajectories[d], r.drives[d].poses);
-    out += format_text("wrote %s: %zu LiDAR poses (%s), one per scan\n", o.trajectories[d].c_str(), r.drives[d].poses.size(),
+    write_poses(o.trajectories[d], r.drives[nb + d].poses);
+    out += format_text("wrote %s: %zu LiDAR poses (%s), one per scan\n", o.trajectories[d].c_str(), r.drives[nb + d].poses.size(),
                        r.source.c_str());
   }
   const std::string& map_pcd = o.map_pcd;
   write_pcd(map_pcd, r.map.points, r.map.intensity, r.origin);
+  const std::size_t all = r.drives.size();
   out += format_text("wrote %s: %zu points from %zu scans%s at %.2f m voxels\n", map_pcd.c_str(), r.map.points.size(),
-                     r.merged_scans, n > 1 ? format_text(" of %zu drives", n).c_str() : "", r.voxel_m);
+                     r.merged_scans, all > 1 ? format_text(" of %zu drives", all).c_str() : "", r.voxel_m);
   if (!r.map.places.empty()) {
     const std::string path = places_path(map_pcd);
     const std::string bytes = r.map.places.encode();
@@ -483,6 +568,10 @@ std::string write_gloam_outputs(const GloamResult& r, const GloamOutputs& o) {
     out += format_text("wrote %s: %zu places for relocalization (pl-map tile stores them with the map)\n", path.c_str(),
                        r.map.places.places().size());
   }
+  const std::string record = drive_record_path(map_pcd);
+  write_drive_record(record, drive_record_of(r));
+  out += format_text("wrote %s: the map's %zu drives and their poses (pl-map build --base-map %s adds drives to this map)\n",
+                     record.c_str(), all, map_pcd.c_str());
   return out;
 }
 

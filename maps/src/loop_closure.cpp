@@ -132,7 +132,7 @@ LoopReport close_loops(PoseGraph& graph, const std::vector<std::vector<Eigen::Ve
   for (std::size_t i = 0; i < n; ++i) {
     if (progress) progress(i + 1, n);
     if (i > 0 && drive[i] != drive[i - 1]) next_query = 0.0;
-    if (path[i] < next_query) continue;
+    if (path[i] < next_query || graph.fixed(drive[i])) continue;  // a base map's drives are where they are
     // Eligible matches: the keyframes of earlier drives, and this drive's at least min_separation_m
     // of path behind. Between a drive tied to the map and a floating one, only a proposal by place
     // means anything (the floating drive's estimate is in its own frame); two floating drives wait.

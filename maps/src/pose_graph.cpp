@@ -340,6 +340,7 @@ const std::vector<std::size_t>& PoseGraph::keyframes() const { return impl_->key
 std::size_t PoseGraph::drives() const { return impl_->drives.size(); }
 std::size_t PoseGraph::drive_of(std::size_t keyframe) const { return impl_->keyframe_drive.at(keyframe); }
 std::size_t PoseGraph::first_keyframe(std::size_t drive) const { return impl_->drives.at(drive).first; }
+bool PoseGraph::fixed(std::size_t drive) const { return impl_->drives.at(drive).fixed; }
 bool PoseGraph::joined(std::size_t drive) const { return impl_->drives.at(drive).joined; }
 
 void PoseGraph::join_drive(std::size_t drive, const Pose& correction) {

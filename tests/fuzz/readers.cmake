@@ -19,3 +19,5 @@ pl_add_fuzzer(places SOURCES fuzz_places.cpp LIBS pl_registration)
 target_link_libraries(make_fuzz_seeds PRIVATE pl_registration)
 # A vehicle's change report as the map service parses it (schema/src/change_report.cpp).
 pl_add_fuzzer(change_report SOURCES fuzz_change_report.cpp LIBS pl_schema pl_common)
+# The record of a map's drives that pl-map build --base-map reads (maps/src/drive_record.cpp).
+pl_add_fuzzer(drive_record SOURCES fuzz_drive_record.cpp LIBS pl_maps)

@@ -69,14 +69,27 @@ struct GloamDrive {
   Trajectory poses;                // the LiDAR pose of every scan, with the scan times
   Trajectory odometry;             // with LiDAR poses: the odometry's, before the pose graph (moved as a
                                    // whole to start where the graph put its first scan); empty otherwise
+  bool merge_deskew = false;       // the merge corrected its sweeps, each of sweep_s
+  double sweep_s = 0.1;
+};
+
+// A base map's drives (pl-map build --base-map, drive_record.hpp): the first poses.size() drives given
+// are placed at these poses (map frame, one per scan), held fixed in the pose graph and merged first,
+// so that the voxels the other drives do not reach keep their points to the bit.
+struct GloamBase {
+  std::vector<Trajectory> poses;
+  std::vector<bool> deskew;        // per drive: the base map's merge corrected its sweeps (checked against cfg)
+  std::optional<GeoPoint> origin;  // the base map's; the map keeps it
 };
 
 struct GloamResult {
   std::vector<GloamDrive> drives;  // in the order given
+  std::size_t base_drives = 0;     // the first base_drives of them are the base map's
   MapCloud map;                    // in the first dataset's world frame (or its first scan's, see origin)
   std::optional<GeoPoint> origin;  // the map frame's geodetic origin; none in the first scan's frame
   std::size_t merged_scans = 0;
   double voxel_m = 0;              // of the merge
+  MapBuildConfig merge;            // the merge's settings
   std::string source;              // "ground truth", "lidar odometry + GPS pose graph", ...
   std::string report_json;         // keyframes, GPS edges, loops, errors against ground truth, times
 };
@@ -86,11 +99,14 @@ struct GloamResult {
 // poses = GroundTruth, GPS fixes for gps). Checked before any scan is read.
 void check_gloam_config(const GloamConfig& cfg);
 // Several drives: a drive that nothing ties to the map (no GPS fixes, no loop to a drive that is
-// tied) is refused by name, as is a second drive with LiDAR poses and neither gps nor loops.
-GloamResult build_gloam_map(const std::vector<const Dataset*>& drives, const GloamConfig& cfg, const GloamObserver& observer = {});
+// tied) is refused by name, as is a second drive with LiDAR poses and neither gps nor loops. With a
+// base, `drives` starts with the base map's drives (their datasets opened again).
+GloamResult build_gloam_map(const std::vector<const Dataset*>& drives, const GloamConfig& cfg, const GloamObserver& observer = {},
+                            const GloamBase& base = {});
 GloamResult build_gloam_map(const Dataset& ds, const GloamConfig& cfg, const GloamObserver& observer = {});
 
-// The paths to write (empty: not written); trajectories and odometry one per drive, or none.
+// The paths to write (empty: not written); trajectories and odometry one per drive after the base
+// map's, or none.
 struct GloamOutputs {
   std::string map_pcd, report;
   std::vector<std::string> trajectories, odometry;
@@ -98,7 +114,8 @@ struct GloamOutputs {
 // pl::Error for a number of trajectory or odometry paths other than `drives` (none is fine).
 void check_gloam_outputs(const GloamOutputs& out, std::size_t drives);
 // Writes the odometry's trajectories, the report and the trajectories (KITTI, or TUM with the scan
-// times when the name ends in .tum), then the map (PCD with its origin) and its places; returns a
+// times when the name ends in .tum), then the map (PCD with its origin), its places and its drive
+// record (drive_record.hpp: what a later --base-map build reads); returns a
 // "wrote ..." line for each. Throws pl::Error for odometry paths when no odometry ran, and for a
 // number of trajectory paths other than the drives'.
 std::string write_gloam_outputs(const GloamResult& r, const GloamOutputs& out);

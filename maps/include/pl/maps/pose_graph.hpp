@@ -134,6 +134,7 @@ class PoseGraph {
   // Whether the drive is tied to the map frame: fixed, with GPS fixes, the frame's own first drive,
   // or joined by a loop.
   bool joined(std::size_t drive) const;
+  bool fixed(std::size_t drive) const;  // held as given (GraphDrive::fixed)
   // Moves a floating drive's whole estimate by `correction` (map frame, on the left) and lets its
   // first keyframe go: the loop just found ties it to the others.
   void join_drive(std::size_t drive, const Pose& correction);
