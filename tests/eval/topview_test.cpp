@@ -309,6 +309,10 @@ TEST(EvalTopviewPng, BadBoundsAndPathsAreClearErrors) {
   EXPECT_NE(error_of([&] { write_topview(cloud, {}, options, dir.file("t.svg"), cloud); }).find("in a PNG only"),
             std::string::npos);
   EXPECT_FALSE(std::filesystem::exists(dir.file("t.jpg")) || std::filesystem::exists(dir.file("t.svg")));
+  // A stray point far out of any sane map.
+  Points3d stray = cloud;
+  stray.emplace_back(1e300, 0.0, 0.0);
+  EXPECT_NE(error_of([&] { write_topview(stray, {}, options, dir.file("stray.png")); }).find("span more than"), std::string::npos);
 }
 
 TEST(EvalTopviewCli, WritesAnSvgWithTrajectoriesLegendAndCells) {

@@ -30,8 +30,8 @@ void on_png_error(png_structp png, png_const_charp message) {
 void on_png_warning(png_structp, png_const_charp) {}
 
 // Returns false (and the message in `state`) when libpng failed.
-bool write_rows(std::FILE* file, const PaletteImage& image, png_color* palette, png_text* text, int text_count,
-                png_bytep* rows, PngErrorState* state) {
+bool write_rows(std::FILE* file, const PaletteImage& image, png_color* palette, png_text* text, int text_count, png_bytep* rows,
+                PngErrorState* state) {
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, state, on_png_error, on_png_warning);
   if (!png) {
     std::snprintf(state->message, sizeof state->message, "out of memory");
@@ -88,8 +88,10 @@ void PaletteImage::line(double ax, double ay, double bx, double by, int thicknes
       continue;
     }
     const double t = q[k] / p[k];
-    if (p[k] < 0.0) t0 = std::max(t0, t);
-    else t1 = std::min(t1, t);
+    if (p[k] < 0.0)
+      t0 = std::max(t0, t);
+    else
+      t1 = std::min(t1, t);
     if (t0 > t1) return;
   }
   const double sx = ax + t0 * dx, sy = ay + t0 * dy, ex = ax + t1 * dx, ey = ay + t1 * dy;
@@ -113,8 +115,7 @@ void PaletteImage::disc(double cx, double cy, double radius, std::uint8_t index)
     }
 }
 
-void write_png(const std::string& path, const PaletteImage& image,
-               const std::vector<std::pair<std::string, std::string>>& text) {
+void write_png(const std::string& path, const PaletteImage& image, const std::vector<std::pair<std::string, std::string>>& text) {
   std::vector<png_color> palette;
   for (const Rgb& c : image.palette) palette.push_back(png_color{c[0], c[1], c[2]});
   std::vector<std::string> keys, values;
@@ -137,7 +138,8 @@ void write_png(const std::string& path, const PaletteImage& image,
   std::FILE* file = std::fopen(path.c_str(), "wb");
   if (!file) throw Error(path + ": cannot write (" + std::strerror(errno) + "; check that the folder exists and is writable)");
   PngErrorState state;
-  const bool written = write_rows(file, image, palette.data(), chunks.data(), static_cast<int>(chunks.size()), rows.data(), &state);
+  const bool written =
+      write_rows(file, image, palette.data(), chunks.data(), static_cast<int>(chunks.size()), rows.data(), &state);
   const bool closed = std::fclose(file) == 0;
   if (!written || !closed) std::remove(path.c_str());
   if (!written) throw Error(path + ": writing the PNG failed: " + state.message);

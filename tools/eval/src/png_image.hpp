@@ -14,8 +14,8 @@ using Rgb = std::array<std::uint8_t, 3>;
 
 struct PaletteImage {
   int width = 0, height = 0;
-  std::vector<Rgb> palette;            // at most 256 colours
-  std::vector<std::uint8_t> pixels;    // width * height palette indices, row by row from the top
+  std::vector<Rgb> palette;          // at most 256 colours
+  std::vector<std::uint8_t> pixels;  // width * height palette indices, row by row from the top
 
   PaletteImage(int w, int h, std::vector<Rgb> colours, std::uint8_t background);
   bool inside(int x, int y) const { return x >= 0 && y >= 0 && x < width && y < height; }
@@ -35,7 +35,6 @@ struct PaletteImage {
 // Writes `image` to `path` (best zlib compression, no row filters: a palette raster compresses best
 // unfiltered), with tEXt chunks (keyword, text) such as Title and Description. Throws pl::Error
 // naming the path when the file cannot be written.
-void write_png(const std::string& path, const PaletteImage& image,
-               const std::vector<std::pair<std::string, std::string>>& text);
+void write_png(const std::string& path, const PaletteImage& image, const std::vector<std::pair<std::string, std::string>>& text);
 
 }  // namespace pl::eval

@@ -40,9 +40,9 @@ struct TrackColor {
 };
 extern const TrackColor kTrackColors[8];
 
-TopviewResult write_topview_svg(const Points3d& cloud, const std::vector<TopviewTrack>& tracks,
-                                const TopviewOptions& options, const std::string& out);
-TopviewResult write_topview_png(const Points3d& cloud, const std::vector<TopviewTrack>& tracks,
-                                const TopviewOptions& options, const std::string& out, const Points3d& highlight);
+TopviewResult write_topview_svg(const Points3d& cloud, const std::vector<TopviewTrack>& tracks, const TopviewOptions& options,
+                                const std::string& out);
+TopviewResult write_topview_png(const Points3d& cloud, const std::vector<TopviewTrack>& tracks, const TopviewOptions& options,
+                                const std::string& out, const Points3d& highlight);
 
 }  // namespace pl::eval

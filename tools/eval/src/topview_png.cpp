@@ -79,10 +79,15 @@ Grid grid_over(const TopviewBounds& box, bool exact, double cell) {
   Grid g;
   g.cell = cell;
   const std::int64_t margin = exact ? 0 : kMarginCells;
-  g.x0 = static_cast<std::int64_t>(std::floor(box.x_min / cell)) - margin;
-  g.y0 = static_cast<std::int64_t>(std::floor(box.y_min / cell)) - margin;
-  g.x1 = (exact ? static_cast<std::int64_t>(std::ceil(box.x_max / cell)) - 1 : static_cast<std::int64_t>(std::floor(box.x_max / cell))) + margin;
-  g.y1 = (exact ? static_cast<std::int64_t>(std::ceil(box.y_max / cell)) - 1 : static_cast<std::int64_t>(std::floor(box.y_max / cell))) + margin;
+  const auto first = [cell](double v) { return static_cast<std::int64_t>(std::floor(v / cell)); };
+  // The last cell: the one holding a point at v, or for bounds the last one a box ending at v enters.
+  const auto last = [cell, exact](double v) {
+    return static_cast<std::int64_t>(exact ? std::ceil(v / cell) - 1 : std::floor(v / cell));
+  };
+  g.x0 = first(box.x_min) - margin;
+  g.y0 = first(box.y_min) - margin;
+  g.x1 = last(box.x_max) + margin;
+  g.y1 = last(box.y_max) + margin;
   g.x1 = std::max(g.x1, g.x0);
   g.y1 = std::max(g.y1, g.y0);
   return g;
@@ -96,21 +101,23 @@ std::string format(const char* f, double a) {
 
 }  // namespace
 
-TopviewResult write_topview_png(const Points3d& cloud, const std::vector<TopviewTrack>& tracks,
-                                const TopviewOptions& options, const std::string& out, const Points3d& highlight) {
+TopviewResult write_topview_png(const Points3d& cloud, const std::vector<TopviewTrack>& tracks, const TopviewOptions& options,
+                                const std::string& out, const Points3d& highlight) {
   const bool exact = options.bounds.has_value();
   const TopviewBounds box = exact ? *options.bounds : extent_of(cloud, highlight, tracks);
   // The cell side: as asked, enlarged (to whole centimetres) until one pixel a cell fits the image.
   double cell = options.cell;
   for (;;) {
     const double cells_across = std::max(std::floor(box.x_max / cell) - std::floor(box.x_min / cell),
-                                         std::floor(box.y_max / cell) - std::floor(box.y_min / cell)) + 1 + 2 * kMarginCells;
+                                         std::floor(box.y_max / cell) - std::floor(box.y_min / cell)) +
+                                1 + 2 * kMarginCells;
     if (cells_across <= kTopviewMaxPixels) break;
     cell = std::max(cell + 0.01, std::ceil(cell * cells_across / kTopviewMaxPixels * 100.0) / 100.0);
+    if (!(cell < 1e9)) throw Error("nothing to draw at a sane scale: the points and trajectories span more than 1e12 m");
   }
   const Grid grid = grid_over(box, exact, cell);
-  const int ppc = static_cast<int>(std::clamp<std::int64_t>(kTopviewMaxPixels / std::max(grid.nx(), grid.ny()), 1,
-                                                            kTopviewMaxPixelsPerCell));
+  const int ppc =
+      static_cast<int>(std::clamp<std::int64_t>(kTopviewMaxPixels / std::max(grid.nx(), grid.ny()), 1, kTopviewMaxPixelsPerCell));
 
   TopviewResult r;
   r.png = true;
@@ -159,7 +166,8 @@ TopviewResult write_topview_png(const Points3d& cloud, const std::vector<Topview
       image.line(to_px(poses[i - 1].translation().x()), to_py(poses[i - 1].translation().y()), to_px(poses[i].translation().x()),
                  to_py(poses[i].translation().y()), kLinePixels, static_cast<std::uint8_t>(kFirstTrack + colour));
     if (poses.size() == 1)
-      image.disc(to_px(poses[0].translation().x()), to_py(poses[0].translation().y()), 1.5, static_cast<std::uint8_t>(kFirstTrack + colour));
+      image.disc(to_px(poses[0].translation().x()), to_py(poses[0].translation().y()), 1.5,
+                 static_cast<std::uint8_t>(kFirstTrack + colour));
     lines += std::string(lines.empty() ? "" : ", ") + kTrackColors[colour].name + " " + tracks[k].label;
   }
   for (const auto& t : tracks)
@@ -171,12 +179,14 @@ TopviewResult write_topview_png(const Points3d& cloud, const std::vector<Topview
                        " m; x " + format("%.2f", r.extent.x_min) + " to " + format("%.2f", r.extent.x_max) + " m, y " +
                        format("%.2f", r.extent.y_min) + " to " + format("%.2f", r.extent.y_max) + " m.";
   if (!shading.key.empty()) legend += " Grey: " + shading.key + ".";
-  if (!highlight.empty()) legend += " Red: " + std::to_string(r.highlight_points) + " highlighted points in " +
-                                    std::to_string(r.highlight_cells) + " cells.";
+  if (!highlight.empty())
+    legend +=
+        " Red: " + std::to_string(r.highlight_points) + " highlighted points in " + std::to_string(r.highlight_cells) + " cells.";
   if (!lines.empty()) legend += " Lines: " + lines + "; black dots: their starts.";
   r.legend = legend;
-  write_png(out, image, {{"Title", options.title.empty() ? "Top view" : options.title}, {"Description", legend},
-                         {"Software", "pl-eval topview"}});
+  write_png(
+      out, image,
+      {{"Title", options.title.empty() ? "Top view" : options.title}, {"Description", legend}, {"Software", "pl-eval topview"}});
   std::error_code ec;
   r.bytes = static_cast<std::size_t>(std::filesystem::file_size(out, ec));
   return r;
