@@ -224,8 +224,13 @@ TEST(EvalTopviewPng, RemovedPointsInRedOverTheMap) {
   EXPECT_TRUE(points_missing_from(after, before).empty());
   EXPECT_EQ(points_missing_from(before, {}).size(), before.size());
 
-  const TopviewResult r = write_topview(after, {TopviewTrack{"loop", loop_trajectory(PoseFormat::Kitti)}}, TopviewOptions{},
+  TopviewOptions options;
+  options.title = "block \u2212 hole";  // not ASCII: an iTXt chunk
+  const TopviewResult r = write_topview(after, {TopviewTrack{"loop", loop_trajectory(PoseFormat::Kitti)}}, options,
                                         dir.file("removed.png"), removed);
+  const std::string bytes = read_text(dir.file("removed.png"));
+  EXPECT_NE(bytes.find("iTXtTitle"), std::string::npos);
+  EXPECT_NE(bytes.find(options.title), std::string::npos);
   EXPECT_EQ(r.highlight_points, removed.size());
   EXPECT_EQ(r.highlight_cells, 16u);
   const Decoded d = decode_png(dir.file("removed.png"));

@@ -125,11 +125,17 @@ void write_png(const std::string& path, const PaletteImage& image, const std::ve
   }
   std::vector<png_text> chunks(text.size());
   for (std::size_t i = 0; i < chunks.size(); ++i) {
+    // tEXt holds Latin-1; text with other characters (UTF-8 bytes) goes into an iTXt chunk.
+    const bool ascii =
+        std::all_of(values[i].begin(), values[i].end(), [](char c) { return static_cast<unsigned char>(c) < 0x80; });
     chunks[i] = png_text{};
-    chunks[i].compression = PNG_TEXT_COMPRESSION_NONE;
+    chunks[i].compression = ascii ? PNG_TEXT_COMPRESSION_NONE : PNG_ITXT_COMPRESSION_NONE;
     chunks[i].key = keys[i].data();
     chunks[i].text = values[i].data();
-    chunks[i].text_length = values[i].size();
+    if (ascii)
+      chunks[i].text_length = values[i].size();
+    else
+      chunks[i].itxt_length = values[i].size();
   }
   std::vector<png_bytep> rows(static_cast<std::size_t>(image.height));
   for (int y = 0; y < image.height; ++y)

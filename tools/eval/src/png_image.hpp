@@ -33,8 +33,8 @@ struct PaletteImage {
 };
 
 // Writes `image` to `path` (best zlib compression, no row filters: a palette raster compresses best
-// unfiltered), with tEXt chunks (keyword, text) such as Title and Description. Throws pl::Error
-// naming the path when the file cannot be written.
+// unfiltered), with text chunks (keyword, text) such as Title and Description: tEXt, or iTXt for
+// text that is not ASCII (UTF-8). Throws pl::Error naming the path when the file cannot be written.
 void write_png(const std::string& path, const PaletteImage& image, const std::vector<std::pair<std::string, std::string>>& text);
 
 }  // namespace pl::eval
