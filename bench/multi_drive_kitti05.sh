@@ -44,7 +44,12 @@ echo "second half without GPS:          $(ape "$d/two-nogps.txt" "$d/oxts.txt")"
 # Moving things: the whole drive at OXTS poses, every return merged against the moving ones removed.
 "$bin/pl-map" build --dataset "$drive" --poses gt --moving keep --out "$d/kept.pcd" >/dev/null
 "$bin/pl-map" build --dataset "$drive" --poses gt --moving remove --out "$d/cleaned.pcd" | grep "moving things"
-for m in kept cleaned; do
-  "$bin/pl-eval" topview --cloud "$d/$m.pcd" --cell 0.2 --title "drive 0005 at OXTS poses: $m" --out "$d/top-$m.svg" >/dev/null
-done
-echo "top views: $d/top-kept.svg $d/top-cleaned.svg"
+# The top views of docs/figures/k05-moving-*.png: the streets around the drive, the removed points in red.
+box=-25,-30,95,35
+"$bin/pl-eval" topview --cloud "$d/kept.pcd" --traj "$d/oxts.txt:OXTS" --cell 0.2 --bounds=$box \
+  --title "KITTI raw 2011_09_26 drive 0005 at OXTS poses: every return merged (pl-map build --moving keep)" \
+  --out "$d/k05-moving-kept.png" >/dev/null
+"$bin/pl-eval" topview --cloud "$d/cleaned.pcd" --removed-from "$d/kept.pcd" --traj "$d/oxts.txt:OXTS" --cell 0.2 --bounds=$box \
+  --title "KITTI raw 2011_09_26 drive 0005 at OXTS poses: pl-map build --moving remove, the points it removed in red" \
+  --out "$d/k05-moving-removed.png" | grep "are not in"
+echo "top views: $d/k05-moving-kept.png $d/k05-moving-removed.png"

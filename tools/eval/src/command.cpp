@@ -49,9 +49,14 @@ const char* const kMapFooter =
     "different geodetic origins are an error.";
 
 const char* const kTopviewFooter =
-    "An SVG top view (x east, y north, equal aspect) of a map cloud as a raster of occupied cells,\n"
-    "shaded grey by points per cell (log scale) or by the highest point, with trajectories (KITTI or\n"
-    "TUM files in the cloud's frame, z up) as coloured polylines, a legend and their starts marked.";
+    "A top view (x east, y north, equal aspect) of a map cloud as a raster of occupied cells, shaded\n"
+    "grey by points per cell (log scale) or by the highest point, with trajectories (KITTI or TUM files\n"
+    "in the cloud's frame, z up) as coloured polylines and their starts marked, as an SVG or a PNG by\n"
+    "--out's extension. The SVG has a title, axes and a legend. The PNG has no text: its title and\n"
+    "legend (colours, metres a pixel, the box shown) go into its Title and Description chunks and are\n"
+    "printed; each cell is 1 to 8 whole pixels, the image at most 1600 px on its longer side (the\n"
+    "cell grows where one pixel a cell would not fit). --bounds, --highlight and --removed-from draw\n"
+    "in a PNG only.";
 
 const char* const kTimingFooter =
     "Per-scan time distribution (count, min, mean, p50, p90, p99, max; nearest-rank percentiles)\n"
@@ -200,15 +205,19 @@ void add_map(cli::Tool& tool, std::ostream& out) {
 
 void add_topview(cli::Tool& tool, std::ostream& out) {
   struct Args {
-    std::string cloud, out, shade = "count", title;
+    std::string cloud, out, shade = "count", title, bounds, highlight, removed_from;
     std::vector<std::string> traj;
     TopviewOptions options;
   };
   auto a = std::make_shared<Args>();
-  CLI::App& c = tool.command("topview", "an SVG top view of a map cloud with trajectories", [a, &out] {
+  CLI::App& c = tool.command("topview", "a top view of a map cloud with trajectories (SVG or PNG)", [a, &out] {
     TopviewOptions options = a->options;
     options.shade = a->shade == "height" ? TopviewShade::Height : TopviewShade::Count;
+    if (!a->bounds.empty()) options.bounds = parse_bounds(a->bounds);
     const Cloud cloud = read_cloud(a->cloud);
+    Points3d highlight;
+    if (!a->highlight.empty()) highlight = read_cloud(a->highlight).points;
+    if (!a->removed_from.empty()) highlight = points_missing_from(read_cloud(a->removed_from).points, cloud.points);
     std::vector<TopviewTrack> tracks;
     for (const auto& arg : a->traj) {
       const auto [path, label] = parse_track_argument(arg);
@@ -219,28 +228,43 @@ void add_topview(cli::Tool& tool, std::ostream& out) {
       tracks.push_back(std::move(t));
     }
     options.title = a->title.empty() ? "Top view of " + std::filesystem::path(a->cloud).filename().string() : a->title;
-    const TopviewResult r = write_topview(cloud.points, tracks, options, a->out);
+    const TopviewResult r = write_topview(cloud.points, tracks, options, a->out, highlight);
     char buf[256];
     std::snprintf(buf, sizeof buf, "%zu points in %zu cells of %.2f m", r.points, r.cells, r.cell);
     out << "top view: " << buf;
     if (r.cell > options.cell) {
-      std::snprintf(buf, sizeof buf, " (enlarged from %.2f m to stay within %zu cells)", options.cell, options.max_cells);
+      if (r.png) std::snprintf(buf, sizeof buf, " (enlarged from %.2f m to fit %d px)", options.cell, kTopviewMaxPixels);
+      else std::snprintf(buf, sizeof buf, " (enlarged from %.2f m to stay within %zu cells)", options.cell, options.max_cells);
       out << buf;
     }
     out << ", " << tracks.size() << " trajector" << (tracks.size() == 1 ? "y" : "ies") << "\n";
+    if (!a->removed_from.empty())
+      out << highlight.size() << " points of " << a->removed_from << " are not in " << a->cloud << "\n";
+    if (r.png) {
+      std::snprintf(buf, sizeof buf, "%d x %d px, %d px a cell", r.width, r.height, r.pixels_per_cell);
+      out << "image: " << buf << "; legend (the PNG's Description): " << r.legend << "\n";
+    }
     std::snprintf(buf, sizeof buf, "%.1f", static_cast<double>(r.bytes) / 1024.0);
     out << "wrote " << a->out << " (" << buf << " KiB)\n";
     return 0;
   });
   c.add_option("--cloud", a->cloud, "the map cloud to draw (.pcd, .ply or .bin)")->required()->type_name("FILE");
-  cli::output_file(c, "--out", a->out, "where to write the top view (SVG)")->required();
+  cli::output_file(c, "--out", a->out, "where to write the top view: FILE.svg (with a legend) or FILE.png (no text)")->required();
   c.add_option("--traj", a->traj, "a trajectory to draw (KITTI or TUM); repeatable; LABEL defaults to the file name")
       ->type_name("FILE[:LABEL]")->allow_extra_args(false)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-  cli::number(c, "--cell", a->options.cell, "cell side, metres; enlarged until at most " + std::to_string(a->options.max_cells) +
-              " cells are occupied", cli::above(0));
+  cli::number(c, "--cell", a->options.cell, "cell side, metres; for an SVG enlarged until at most " +
+              std::to_string(a->options.max_cells) + " cells are occupied, for a PNG until the image fits " +
+              std::to_string(kTopviewMaxPixels) + " px", cli::above(0));
   cli::choice(c, "--shade", a->shade, "grey by points per cell (log scale) or by the highest point", {"count", "height"});
-  c.add_option("--title", a->title, "the figure's title (default: \"Top view of CLOUD\")");
+  c.add_option("--title", a->title, "the figure's title (default: \"Top view of CLOUD\"; a PNG's Title chunk)");
+  c.add_option("--bounds", a->bounds, "(PNG) draw only this box of the xy plane, metres (default: everything, with a margin)")
+      ->type_name("XMIN,YMIN,XMAX,YMAX");
+  auto* highlight = c.add_option("--highlight", a->highlight, "(PNG) a second cloud whose cells are drawn in red over the map")
+      ->type_name("FILE");
+  c.add_option("--removed-from", a->removed_from, "(PNG) the cloud before a filter: its points that --cloud lacks (same "
+               "coordinates, as pl-map build --moving remove leaves the rest) are drawn in red over the map")
+      ->type_name("FILE")->excludes(highlight);
   c.footer(kTopviewFooter);
 }
 
