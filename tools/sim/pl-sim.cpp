@@ -27,7 +27,7 @@ int main(int argc, char** argv) {
   app.add_flag("--reverse", o.reverse, "drive the route the other way round: the stretch the other options give, from its "
                "end back to its start, through the same world (the same seed gives the same things and reference cloud)");
   pl::cli::output_folder(app, "--out", o.out_dir, "where to write the dataset")->required();
-  pl::cli::number(app, "--frames", o.frames, "scans to write; 0: the whole route", pl::cli::at_least(0));
+  pl::cli::number(app, "--frames", o.frames, "scans to write; 0: the whole route (the world is built for the stretch driven: drives share it with the same --frames)", pl::cli::at_least(0));
   pl::cli::number(app, "--seed", o.world.seed, "world and noise seed; same seed and options, same bytes", pl::cli::at_least(0));
   pl::cli::number(app, "--drive-seed", o.drive_seed, "this drive's own randomness (traffic, sensor noise, GPS): another vehicle "
                   "or another day in the same world; default: --seed", pl::cli::at_least(0));
