@@ -64,11 +64,30 @@ case_() {
   echo "  anew:       $(tiles "$c/anew.sqlite"); build ${s_anew} s; drives off their truth by $(error "$c/anew.json" 0), $(error "$c/anew.json" 1)"
 }
 
-if [[ ! -f "$d/town/new/done" ]]; then
-  sim=("$bin/pl-sim" --route loop --seed 1 --traffic 30 --force)
-  "${sim[@]}" --frames "$frames" --drive-seed 1 --out "$d/town/base" >/dev/null
-  "${sim[@]}" --frames $((frames / 3)) --drive-seed 2 --out "$d/town/new" >/dev/null
-  touch "$d/town/new/done"
+# first_scans DRIVE N OUT: the first N scans of a pl-sim drive (linked; times, poses, GPS and encoders
+# cut): part of the stretch through the same world (pl-sim builds its world for the whole stretch).
+first_scans() {
+  local src=$1 n=$2 out=$3 i f end
+  rm -rf "$out"
+  mkdir -p "$out/velodyne" "$out/point_times"
+  for ((i = 0; i < n; i++)); do
+    f=$(printf '%06d.bin' "$i")
+    ln -s "$src/velodyne/$f" "$out/velodyne/$f"
+    ln -s "$src/point_times/$f" "$out/point_times/$f"
+  done
+  cp "$src/meta.json" "$out/"
+  head -n "$n" "$src/times.txt" >"$out/times.txt"
+  head -n "$n" "$src/poses.txt" >"$out/poses.txt"
+  end=$(sed -n "${n}p" "$src/times.txt")
+  for f in gps.csv encoder.csv; do awk -F, -v end="$end" 'NR == 1 || $1 <= end + 0.05' "$src/$f" >"$out/$f"; done
+}
+
+if [[ ! -f "$d/town/done" ]]; then
+  sim=("$bin/pl-sim" --route loop --seed 1 --traffic 30 --frames "$frames" --force)
+  "${sim[@]}" --drive-seed 1 --out "$d/town/base" >/dev/null
+  "${sim[@]}" --drive-seed 2 --out "$d/town/day2" >/dev/null
+  first_scans "$d/town/day2" $((frames / 3)) "$d/town/new"
+  touch "$d/town/done"
 fi
 case_ town-case "town, $frames scans, then $((frames / 3)) over its start on another day" "$d/town/base" "$d/town/new"
 
