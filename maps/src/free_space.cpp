@@ -51,6 +51,7 @@ void FreeSpaceConfig::validate() const {
   need(sky_min_elevation_deg >= -90 && sky_min_elevation_deg <= 90, "sky_min_elevation_deg must be within -90..90 deg");
   need(sky_bin_deg >= 0.05 && sky_bin_deg <= 45, "sky_bin_deg must be within 0.05..45 deg");
   need(sky_start_m >= 0 && sky_start_m <= 500, "sky_start_m must be within 0..500 m");
+  need(sky_near_deg >= 0 && sky_near_deg <= 5, "sky_near_deg must be within 0..5 deg");
   ray.validate();
 }
 
@@ -271,6 +272,21 @@ void FreeSpaceFilter::Impl::walk(const Pose& sensor, const std::vector<Eigen::Ve
     }
     registration::RayCrossingConfig ray = cfg.ray;
     ray.start_m = cfg.sky_start_m;
+    // Nothing returned along a sky ray: a map point within sky_near_deg of it is crossed whatever
+    // its normal (a truck's roof or side, which the ray only grazes).
+    const Eigen::Vector3d anchor = map->anchor();
+    const float pass2 = static_cast<float>(cfg.ray.pass_radius_m * cfg.ray.pass_radius_m);
+    const double near = std::tan(cfg.sky_near_deg * M_PI / 180.0);
+    Eigen::Vector3d dir = Eigen::Vector3d::UnitX();
+    auto probe = [&](const Eigen::Vector3d& x, double s) {
+      if (near <= 0) return true;
+      const registration::Neighbour nb = map->nearest((x - anchor).cast<float>(), pass2, block);
+      if (!nb.point) return true;
+      const Eigen::Vector3d mp = anchor + nb.point->p.cast<double>(), off = mp - x;
+      const double along = off.dot(dir), tol = (s + along) * near;
+      if ((off - along * dir).squaredNorm() <= tol * tol) crossed(*nb.point, mp);
+      return true;
+    };
     for (std::size_t k = 0; k < sky; ++k) {
       const double el = beams[first_sky + k], ce = std::cos(el), se = std::sin(el);
       for (int b = 0; b < bins; ++b) {
@@ -280,7 +296,8 @@ void FreeSpaceFilter::Impl::walk(const Pose& sensor, const std::vector<Eigen::Ve
         if (!free) continue;
         const double az = (b + 0.5) * bin - M_PI;
         const Eigen::Vector3d d(ce * std::cos(az), ce * std::sin(az), se);
-        registration::walk_ray(*map, origin, sensor * (cfg.sky_range_m * d), ray, block, crossed);
+        dir = sensor.linear() * d;
+        registration::walk_ray(*map, origin, sensor * (cfg.sky_range_m * d), ray, block, probe, crossed);
         ++report.rays, ++report.sky_rays;
       }
     }

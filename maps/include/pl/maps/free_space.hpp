@@ -53,8 +53,11 @@ struct FreeSpaceConfig {
   // Sky rays: a beam at or above sky_min_elevation_deg that returned nothing in an azimuth bin of
   // sky_bin_deg, nor in the bins beside it, nor did the beam below (a clearance over the skyline),
   // looked through free space out to sky_range_m (the sky, or beyond the merge's range). Walked from
-  // sky_start_m; they need the drive's beam table (begin_drive). sky_range_m = 0: none.
-  double sky_range_m = 80.0, sky_min_elevation_deg = 0.0, sky_bin_deg = 1.0, sky_start_m = 1.5;
+  // sky_start_m: nearer, an upward beam passes what is below 2.2 m (glass, leaves, a dark car) and
+  // returns nothing as it would from the sky. They need the drive's beam table (begin_drive);
+  // sky_range_m = 0: none.
+  double sky_range_m = 80.0, sky_min_elevation_deg = 0.0, sky_bin_deg = 1.0, sky_start_m = 15.0;
+  double sky_near_deg = 0.1;  // a sky ray also crosses, whatever its normal, a map point within this angle
   // Throws pl::Error naming the field and its allowed range.
   void validate() const;
 };
