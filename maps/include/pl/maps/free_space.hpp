@@ -43,7 +43,7 @@ struct FreeSpaceConfig {
   double min_travel_m = 0.5;   // a scan's rays walked once the sensor moved this far since the last
   registration::RayCrossingConfig ray = free_space_rays();  // its start_m is where a ray's probes begin
   std::uint32_t min_passes = 2;  // a map point is removed when at least this many scans' rays crossed it
-  double pass_share = 0.5;       // ... and at least this share of the scans that returned from its voxel
+  double pass_share = 1.0;       // ... and at least this share of the scans that returned from its voxel
   int confirm_voxels = 2;        // a scan's crossing does not count when it returned this near (voxels)
   // The vehicle's own corridor: map points within corridor_m (horizontally) of the sensor's path
   // between consecutive scans of a drive, from corridor_below_m below the sensor to corridor_above_m
