@@ -1,6 +1,7 @@
 # Sourced by the drive-0005 benchmarks: finds the real drive and prepares, once, the paper's map of
 # its even scans at their OXTS poses (0.2 m voxels, tiled into a SQLite map store) in WORK/k05, with
-# the ground truth of every scan (gt.txt) and of the odd ones (gt_odd.txt).
+# the ground truth of every scan (gt.txt) and of the odd ones (gt_odd.txt). PL_K05_MOVING=remove
+# builds that map with --moving remove (default keep); give it a WORK_DIR of its own (made once).
 #   k05_map NAME BIN_DIR WORK_DIR  -> sets drive and k05; returns 1 (after saying so) without the data
 k05_map() {
   local name=$1 bin=$2 work=$3 root data
@@ -29,7 +30,7 @@ k05_even_map() {
   mkdir -p "$w"
   if [[ ! -f "$w/maps.sqlite" ]]; then
     rm -f "$w/maps.sqlite.partial"*
-    "$bin/pl-map" build --dataset "$d" --poses gt --every 2 --out "$w/even.pcd" >/dev/null
+    "$bin/pl-map" build --dataset "$d" --poses gt --every 2 --moving "${PL_K05_MOVING:-keep}" --out "$w/even.pcd" >/dev/null
     "$bin/pl-map" tile --cloud "$w/even.pcd" --db "$w/maps.sqlite.partial" --map k05 >/dev/null
     "$bin/pl-map" publish --db "$w/maps.sqlite.partial" --map k05 --version 1 >/dev/null
     mv "$w/maps.sqlite.partial" "$w/maps.sqlite"

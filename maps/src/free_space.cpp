@@ -42,10 +42,16 @@ void FreeSpaceConfig::validate() const {
   need(min_travel_m >= 0 && min_travel_m <= 100, "min_travel_m must be within 0..100 m");
   need(min_passes >= 1, "min_passes must be 1 or more (0 would remove every point)");
   need(pass_share >= 0 && pass_share <= 1, "pass_share must be within 0..1");
+  need(confirm_voxels >= 0 && confirm_voxels <= 5, "confirm_voxels must be within 0..5");
   need(corridor_m >= 0 && corridor_m <= 5, "corridor_m must be within 0..5 m");
   need(corridor_below_m >= 0 && corridor_below_m <= 10, "corridor_below_m must be within 0..10 m");
   need(corridor_above_m >= 0 && corridor_above_m <= 10, "corridor_above_m must be within 0..10 m");
   need(max_corridor_step_m > 0 && max_corridor_step_m <= 1000, "max_corridor_step_m must be within (0, 1000] m");
+  need(sky_range_m >= 0 && sky_range_m <= 500, "sky_range_m must be within 0..500 m");
+  need(sky_min_elevation_deg >= -90 && sky_min_elevation_deg <= 90, "sky_min_elevation_deg must be within -90..90 deg");
+  need(sky_bin_deg >= 0.05 && sky_bin_deg <= 45, "sky_bin_deg must be within 0.05..45 deg");
+  need(sky_start_m >= 0 && sky_start_m <= 500, "sky_start_m must be within 0..500 m");
+  need(sky_near_deg >= 0 && sky_near_deg <= 5, "sky_near_deg must be within 0..5 deg");
   ray.validate();
 }
 
@@ -67,6 +73,12 @@ struct FreeSpaceFilter::Impl {
     Eigen::Vector3d at, from;
   };
   std::vector<Return> returns;
+  std::vector<double> beams;          // this drive's beam elevations (rad), ascending
+  std::size_t first_sky = 0;          // beams[first_sky..] are the sky rays' beams
+  std::vector<std::uint8_t> occupied;  // per sky beam and azimuth bin: a return this scan
+  // Per point: the last scan that returned from its voxel, crossings since then, and crossings
+  // between two scans that returned from it (those do not count).
+  std::vector<std::uint32_t> last_seen, pending, interleaved;
   registration::CellBlock block;
   bool have_last = false, have_walked = false;
   Eigen::Vector3d last = Eigen::Vector3d::Zero(), walked_at = Eigen::Vector3d::Zero();
@@ -77,7 +89,10 @@ struct FreeSpaceFilter::Impl {
     return registration::pack_cell(static_cast<std::int64_t>(std::floor(x / column)), static_cast<std::int64_t>(std::floor(y / column)), 0);
   }
   // The rule: crossed by min_passes scans or more, and by pass_share of those that returned from it.
-  bool by_rays(std::size_t i) const { return passes[i] >= cfg.min_passes && passes[i] >= cfg.pass_share * seen[i]; }
+  bool by_rays(std::size_t i) const {
+    const std::uint32_t n = passes[i] - interleaved[i];
+    return n >= cfg.min_passes && n >= cfg.pass_share * seen[i];
+  }
   void mark_corridor(const Eigen::Vector3d& a, const Eigen::Vector3d& b);
   void walk(const Pose& sensor, const std::vector<Eigen::Vector3f>& pts, const std::vector<Eigen::Vector3f>& origins);
 };
@@ -93,6 +108,9 @@ FreeSpaceFilter::FreeSpaceFilter(const Points3d& points, const std::vector<Eigen
   if (points.size() >= UINT32_MAX) throw Error("free space: more than 4 billion points; filter the map in parts");
   Impl& m = *impl_;
   m.cfg = cfg;
+  m.last_seen.assign(points.size(), 0);
+  m.pending.assign(points.size(), 0);
+  m.interleaved.assign(points.size(), 0);
   m.voxel = voxel_m;
   m.inv_voxel = 1.0 / voxel_m;
   m.inv_ray_voxel = 1.0 / cfg.ray_voxel_m;
@@ -143,9 +161,15 @@ FreeSpaceFilter::FreeSpaceFilter(const Points3d& points, const std::vector<Eigen
 
 FreeSpaceFilter::~FreeSpaceFilter() = default;
 
-void FreeSpaceFilter::begin_drive() {
-  impl_->have_last = false;
-  impl_->have_walked = false;
+void FreeSpaceFilter::begin_drive(const std::vector<double>& beams_deg) {
+  Impl& m = *impl_;
+  m.have_last = false;
+  m.have_walked = false;
+  m.beams.clear();
+  for (const double b : beams_deg) m.beams.push_back(b * M_PI / 180.0);
+  std::sort(m.beams.begin(), m.beams.end());
+  const double min_sky = m.cfg.sky_min_elevation_deg * M_PI / 180.0;
+  m.first_sky = static_cast<std::size_t>(std::lower_bound(m.beams.begin(), m.beams.end(), min_sky - 1e-9) - m.beams.begin());
 }
 
 // The map points within corridor_m (horizontally) of the sensor's path from a to b, between
@@ -194,6 +218,11 @@ void FreeSpaceFilter::Impl::walk(const Pose& sensor, const std::vector<Eigen::Ve
     const VoxelIndex v = relative(voxel_index(q, inv_voxel), base);
     if (!in_reach(v)) continue;
     *returned.insert(pack(v), stamp, fresh) = stamp;
+    if (const std::uint32_t* p = by_voxel.find(pack(v)); p && last_seen[*p] != stamp) {
+      if (last_seen[*p] != 0) interleaved[*p] += pending[*p];
+      pending[*p] = 0;
+      last_seen[*p] = stamp;
+    }
     if (!(r2 >= r0 && r2 <= r1)) continue;
     const VoxelIndex t = relative(voxel_index(q, inv_ray_voxel), ray_base);
     if (!in_reach(t)) continue;
@@ -211,16 +240,68 @@ void FreeSpaceFilter::Impl::walk(const Pose& sensor, const std::vector<Eigen::Ve
     const std::uint32_t i = *found;
     if (checked[i] == stamp) return;  // judged for this scan already
     checked[i] = stamp;
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz) {
+    const int c = cfg.confirm_voxels;
+    for (int dx = -c; dx <= c; ++dx)
+      for (int dy = -c; dy <= c; ++dy)
+        for (int dz = -c; dz <= c; ++dz) {
           const std::uint32_t* s = returned.find(registration::pack_cell(v[0] + dx, v[1] + dy, v[2] + dz));
           if (s && *s == stamp) return;  // this scan returned from next to it: still there
         }
     ++passes[i];
+    ++pending[i];
   };
   for (const Return& ret : returns) registration::walk_ray(*map, ret.from, ret.at, cfg.ray, block, crossed);
   report.rays += returns.size();
+
+  // The sky rays: each sky beam's azimuth bins without a return.
+  if (cfg.sky_range_m > 0 && first_sky < beams.size()) {
+    const std::size_t sky = beams.size() - first_sky;
+    const int bins = std::max(1, static_cast<int>(std::lround(360.0 / cfg.sky_bin_deg)));
+    const double bin = 2 * M_PI / bins;
+    occupied.assign((sky + 1) * bins, 0);
+    for (const Eigen::Vector3f& p : pts) {
+      const double el = std::atan2(static_cast<double>(p.z()), std::hypot(static_cast<double>(p.x()), static_cast<double>(p.y())));
+      // The nearest beam.
+      auto it = std::lower_bound(beams.begin(), beams.end(), el);
+      std::size_t k = static_cast<std::size_t>(it - beams.begin());
+      if (k == beams.size() || (k > 0 && el - beams[k - 1] < beams[k] - el)) --k;
+      if (k + 1 < first_sky) continue;
+      const double az = std::atan2(static_cast<double>(p.y()), static_cast<double>(p.x())) + M_PI;
+      const int b = std::min(bins - 1, static_cast<int>(az / bin));
+      occupied[(k + 1 - first_sky) * bins + b] = 1;
+    }
+    registration::RayCrossingConfig ray = cfg.ray;
+    ray.start_m = cfg.sky_start_m;
+    // Nothing returned along a sky ray: a map point within sky_near_deg of it is crossed whatever
+    // its normal (a truck's roof or side, which the ray only grazes).
+    const Eigen::Vector3d anchor = map->anchor();
+    const float pass2 = static_cast<float>(cfg.ray.pass_radius_m * cfg.ray.pass_radius_m);
+    const double near = std::tan(cfg.sky_near_deg * M_PI / 180.0);
+    Eigen::Vector3d dir = Eigen::Vector3d::UnitX();
+    auto probe = [&](const Eigen::Vector3d& x, double s) {
+      if (near <= 0) return true;
+      const registration::Neighbour nb = map->nearest((x - anchor).cast<float>(), pass2, block);
+      if (!nb.point) return true;
+      const Eigen::Vector3d mp = anchor + nb.point->p.cast<double>(), off = mp - x;
+      const double along = off.dot(dir), tol = (s + along) * near;
+      if ((off - along * dir).squaredNorm() <= tol * tol) crossed(*nb.point, mp);
+      return true;
+    };
+    for (std::size_t k = 0; k < sky; ++k) {
+      const double el = beams[first_sky + k], ce = std::cos(el), se = std::sin(el);
+      for (int b = 0; b < bins; ++b) {
+        bool free = true;  // this bin, its two neighbours, and the same three of the beam below
+        for (int dk = 0; dk <= 1 && free; ++dk)
+          for (int db = -1; db <= 1 && free; ++db) free = !occupied[(k + dk) * bins + (b + db + bins) % bins];
+        if (!free) continue;
+        const double az = (b + 0.5) * bin - M_PI;
+        const Eigen::Vector3d d(ce * std::cos(az), ce * std::sin(az), se);
+        dir = sensor.linear() * d;
+        registration::walk_ray(*map, origin, sensor * (cfg.sky_range_m * d), ray, block, probe, crossed);
+        ++report.rays, ++report.sky_rays;
+      }
+    }
+  }
   ++report.walked;
 }
 
@@ -249,9 +330,7 @@ const std::vector<std::uint32_t>& FreeSpaceFilter::passes() const { return impl_
 std::vector<bool> FreeSpaceFilter::moving() const {
   const Impl& m = *impl_;
   std::vector<bool> out(m.points.size(), false);
-  for (std::size_t i = 0; i < out.size(); ++i) {
-    out[i] = m.by_rays(i) || m.corridor[i];
-  }
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = m.by_rays(i) || m.corridor[i];
   return out;
 }
 

@@ -354,7 +354,7 @@ nlohmann::json remove_moving(MapCloud& map, const std::vector<PlacedDrive>& driv
   std::size_t scans = 0, done = 0, last_drive = SIZE_MAX;
   for (const PlacedDrive& d : drives) scans += (d.dataset->size() + cfg.merge.every - 1) / cfg.merge.every;
   for_each_merged_scan(drives, cfg.merge, [&](std::size_t drive, std::size_t, const Pose& sensor, const Scan& kept) {
-    if (drive != last_drive) filter.begin_drive(), last_drive = drive;
+    if (drive != last_drive) filter.begin_drive(drives[drive].dataset->meta.sensor.vertical_angles_deg), last_drive = drive;
     filter.add_scan(sensor, to_points(kept));
     tell.progress("removing moving things", ++done, scans);
   });
