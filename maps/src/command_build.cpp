@@ -101,8 +101,8 @@ void add_build(cli::Tool& tool, std::ostream& out) {
       ->type_name("on|off");
   c.add_option_function<std::string>("--moving", [s](const std::string& v) { s->cfg.remove_moving = v == "remove"; },
                                      "keep (default): every return is merged; remove: points of things that moved during the drives are "
-                                     "left out of the map (free-space evidence: the rays of the drives' other scans passed through them; "
-                                     "on real data it still costs localization accuracy, docs/g-loam.md)")
+                                     "left out of the map (free-space evidence: the rays of the drives' other scans passed through them, "
+                                     "docs/g-loam.md)")
       ->check(CLI::IsMember({"remove", "keep"}))
       ->type_name("remove|keep");
   cli::number(c, "--voxel", merge.voxel_m, "voxel side of the map, metres", cli::above(0));

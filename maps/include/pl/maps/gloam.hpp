@@ -47,8 +47,8 @@ struct GloamConfig {
   MapBuildConfig merge = gloam_merge_defaults();  // voxel, which scans (`every` thins the map only), crops
   double loop_voxel_m = 0.3;  // the keyframe clouds kept for loop closure (merge crops, this voxel)
   // Things that moved during the drives left out of the merged map (free_space.hpp), by the rays of
-  // every merged scan of every drive. Off by default: on drive 0005's even scans it took the
-  // localizer's APE mean from 0.054 to 0.088 m (docs/g-loam.md).
+  // every merged scan of every drive. Off by default: on drive 0005 it leaves the localizer's
+  // figures as they were, and one real drive is too little evidence to change every map (docs/g-loam.md).
   bool remove_moving = false;
   FreeSpaceConfig free_space;
   LoamConfig loam;            // its deskew and scan period are set from `deskew` and the dataset
