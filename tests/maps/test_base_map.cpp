@@ -58,10 +58,10 @@ void keep_first_scans(const std::string& drive, std::size_t scans, const std::st
   }
 }
 
-// A stretch of the town (110 scans), and a drive over its first 30 scans on another day.
+// A stretch of the town (110 scans, 16 beams), and a drive over its first 30 scans on another day.
 std::string drives() {
   return pl::test::made_once("base-map-drives", [](const std::string& d) {
-    const std::string sim = tool("pl-sim") + " --route loop --seed 5 --traffic 4 --frames 110 ";
+    const std::string sim = tool("pl-sim") + " --route loop --seed 5 --traffic 4 --frames 110 --lidar vlp16 ";
     auto a = run(sim + "--drive-seed 1 --out " + d + "/base");
     ASSERT_EQ(a.exit_code, 0) << a.output;
     auto b = run(sim + "--drive-seed 3 --out " + d + "/day2");
