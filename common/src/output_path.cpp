@@ -94,4 +94,11 @@ void check_output_folder(const std::string& path) {
   if (!problem.empty()) throw Error(problem);
 }
 
+std::string beside(const std::string& path, const std::string& ext) {
+  const std::size_t slash = path.find_last_of('/');
+  const std::size_t dot = path.find_last_of('.');
+  const bool has_ext = dot != std::string::npos && (slash == std::string::npos || dot > slash + 1);
+  return (has_ext ? path.substr(0, dot) : path) + ext;
+}
+
 }  // namespace pl

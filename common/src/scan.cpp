@@ -177,15 +177,17 @@ std::vector<std::uint16_t> rings_from_elevation(const Scan& scan, const std::vec
   std::vector<double> sorted(order.size());
   for (std::size_t i = 0; i < order.size(); ++i) sorted[i] = angles_deg[order[i]] * M_PI / 180.0;
   std::vector<std::uint16_t> rings(scan.size());
-  for (std::size_t i = 0; i < scan.size(); ++i) {
-    const auto& p = scan[i];
-    double el = std::atan2(static_cast<double>(p.z), std::hypot(static_cast<double>(p.x), static_cast<double>(p.y)));
-    auto it = std::lower_bound(sorted.begin(), sorted.end(), el);
-    std::size_t k = static_cast<std::size_t>(it - sorted.begin());
-    if (k == sorted.size() || (k > 0 && el - sorted[k - 1] < sorted[k] - el)) --k;
-    rings[i] = static_cast<std::uint16_t>(order[k]);
-  }
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    rings[i] = static_cast<std::uint16_t>(order[nearest_angle(sorted, elevation_of(scan[i].x, scan[i].y, scan[i].z))]);
   return rings;
+}
+
+double elevation_of(double x, double y, double z) { return std::atan2(z, std::hypot(x, y)); }
+
+std::size_t nearest_angle(const std::vector<double>& sorted, double angle) {
+  std::size_t k = static_cast<std::size_t>(std::lower_bound(sorted.begin(), sorted.end(), angle) - sorted.begin());
+  if (k == sorted.size() || (k > 0 && angle - sorted[k - 1] < sorted[k] - angle)) --k;
+  return k;
 }
 
 Scan keep_every_kth_ring(const Scan& scan, const std::vector<std::uint16_t>& rings, int every, int offset,

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "pl/common/error.hpp"
+#include "pl/common/output_path.hpp"
 #include "pl/common/text.hpp"
 
 namespace pl::maps {
@@ -51,12 +52,7 @@ const nlohmann::json& field(const nlohmann::json& o, const char* name, const std
 
 }  // namespace
 
-std::string drive_record_path(const std::string& map) {
-  const std::size_t slash = map.find_last_of('/');
-  const std::size_t dot = map.find_last_of('.');
-  const bool has_ext = dot != std::string::npos && (slash == std::string::npos || dot > slash + 1);
-  return (has_ext ? map.substr(0, dot) : map) + ".drives.json";
-}
+std::string drive_record_path(const std::string& map) { return beside(map, ".drives.json"); }
 
 std::string encode_drive_record(const DriveRecord& record) {
   const MapBuildConfig& m = record.merge;

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "pl/common/error.hpp"
+#include "pl/common/scan.hpp"
 #include "pl/registration/cell_table.hpp"
 
 namespace pl::maps {
@@ -260,11 +261,7 @@ void FreeSpaceFilter::Impl::walk(const Pose& sensor, const std::vector<Eigen::Ve
     const double bin = 2 * M_PI / bins;
     occupied.assign((sky + 1) * bins, 0);
     for (const Eigen::Vector3f& p : pts) {
-      const double el = std::atan2(static_cast<double>(p.z()), std::hypot(static_cast<double>(p.x()), static_cast<double>(p.y())));
-      // The nearest beam.
-      auto it = std::lower_bound(beams.begin(), beams.end(), el);
-      std::size_t k = static_cast<std::size_t>(it - beams.begin());
-      if (k == beams.size() || (k > 0 && el - beams[k - 1] < beams[k] - el)) --k;
+      const std::size_t k = nearest_angle(beams, elevation_of(p.x(), p.y(), p.z()));  // the point's beam
       if (k + 1 < first_sky) continue;
       const double az = std::atan2(static_cast<double>(p.y()), static_cast<double>(p.x())) + M_PI;
       const int b = std::min(bins - 1, static_cast<int>(az / bin));

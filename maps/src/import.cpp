@@ -148,11 +148,6 @@ ImportResult import_cloud(const std::string& db, const std::string& name, const 
   return r;
 }
 
-std::string places_path(const std::string& cloud) {
-  const std::size_t slash = cloud.find_last_of('/');
-  const std::size_t dot = cloud.find_last_of('.');
-  const bool has_ext = dot != std::string::npos && (slash == std::string::npos || dot > slash + 1);
-  return (has_ext ? cloud.substr(0, dot) : cloud) + ".places";
-}
+std::string places_path(const std::string& cloud) { return beside(cloud, ".places"); }
 
 }  // namespace pl::maps

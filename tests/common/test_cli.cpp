@@ -163,3 +163,11 @@ TEST(Cli, OutputPathProblemsNameThePathAndTheFix) {
   EXPECT_NE(pl::output_folder_problem(dir / "file.txt").find("it is a file, not a folder"), std::string::npos);
   EXPECT_NE(pl::output_folder_problem(dir / "file.txt/sub").find("is a file, not a folder"), std::string::npos);
 }
+
+TEST(Cli, FilesBesideAPathTakeItsStem) {
+  EXPECT_EQ(pl::beside("maps/town.pcd", ".places"), "maps/town.places");
+  EXPECT_EQ(pl::beside("maps/town", ".drives.json"), "maps/town.drives.json");
+  EXPECT_EQ(pl::beside("a.b/town", ".places"), "a.b/town.places");      // a dot in a folder is not an extension
+  EXPECT_EQ(pl::beside("maps/.hidden", ".places"), "maps/.hidden.places");  // nor a leading dot
+  EXPECT_EQ(pl::beside("town.v2.pcd", ".places"), "town.v2.places");
+}

@@ -17,4 +17,8 @@ std::string output_folder_problem(const std::string& path);
 void check_output_file(const std::string& path);
 void check_output_folder(const std::string& path);
 
+// The file written beside `path`: its path with `ext` (".places", say) for its extension, or added
+// when it has none ("maps/town.pcd" -> "maps/town.places").
+std::string beside(const std::string& path, const std::string& ext);
+
 }  // namespace pl

@@ -38,6 +38,10 @@ void write_point_times(const std::string& path, const std::vector<float>& times)
 std::vector<std::uint16_t> rings_from_azimuth(const Scan& scan);
 // Ring of every point from the nearest vertical angle of the sensor's beam table.
 std::vector<std::uint16_t> rings_from_elevation(const Scan& scan, const std::vector<double>& vertical_angles_deg);
+// A point's angle above the sensor's horizontal plane, radians.
+double elevation_of(double x, double y, double z);
+// The index of the angle in `sorted` (ascending, not empty) nearest `angle`.
+std::size_t nearest_angle(const std::vector<double>& sorted, double angle);
 
 // Keeps the points whose ring r satisfies r % every == offset (64 -> 16 beams: every = 4).
 Scan keep_every_kth_ring(const Scan& scan, const std::vector<std::uint16_t>& rings, int every, int offset = 0,
