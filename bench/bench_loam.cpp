@@ -37,6 +37,7 @@ void apply_settings(const std::string& text, pl::maps::LoamConfig& c) {
     const int iv = static_cast<int>(v);
     if (name == "min_range_m") c.min_range_m = v;
     else if (name == "max_range_m") c.max_range_m = v;
+    else if (name == "threads") c.threads = iv;
     else if (name == "curvature_neighbours") c.curvature_neighbours = iv;
     else if (name == "sectors") c.sectors = iv;
     else if (name == "edge_curvature") c.edge_curvature = v;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Runs every benchmark, with the real data beside the repository when it is there.
-#   bench/run.sh BIN_DIR
+#   bench/run.sh BIN_DIR        (PL_BENCH_BEFORE=REV: the earlier build the speed figures are set beside)
 set -euo pipefail
 bin=${1:?usage: bench/run.sh BIN_DIR}
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -65,6 +65,13 @@ bash "$(dirname "$0")/localize_kitti00.sh" "$bin" "$root/build/bench"
 echo
 echo "== gloam_kitti00: G-LOAM map building on the KITTI 00 trajectory, all 4,541 scans (pl-sim data)"
 bash "$(dirname "$0")/gloam_kitti00.sh" "$bin" "$root/build/bench"
+
+echo
+# The build the speed and size figures are set beside: main before the work of 2026-12-07 on them.
+before_rev=${PL_BENCH_BEFORE:-8f68d64}
+echo "== gloam_speed: the whole G-LOAM build of 1,200 KITTI 00 scans and of the town, this build beside $before_rev"
+before_bin=$(bash "$(dirname "$0")/before_build.sh "$before_rev" "$root/build/bench")
+bash "$(dirname "$0")/gloam_speed.sh" "$before_bin" "$bin" "$root/build/bench/gloam_speed"
 
 echo
 echo "== gloam_kitti05: G-LOAM on real data, KITTI raw drive 0005 with a consumer GPS"

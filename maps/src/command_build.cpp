@@ -109,6 +109,8 @@ void add_build(cli::Tool& tool, std::ostream& out) {
   cli::number(c, "--every", merge.every, "merge every N-th scan (the odometry still uses them all)", cli::at_least(1));
   cli::number(c, "--min-range", merge.scan.min_range_m, "returns closer than this are not merged, metres", cli::at_least(0));
   cli::number(c, "--max-range", merge.scan.max_range_m, "returns farther than this are not merged, metres", cli::above(0));
+  cli::number(c, "--threads", s->cfg.loam.threads, "threads of the LiDAR odometry's correspondence search (the map does not "
+              "depend on it; scans are also read one ahead on a thread of their own)", cli::between(1, 64));
 }
 
 void add_tile(cli::Tool& tool, std::ostream& out) {

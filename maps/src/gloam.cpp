@@ -15,6 +15,7 @@
 
 #include "pl/common/cloud_io.hpp"
 #include "pl/common/error.hpp"
+#include "pl/common/read_ahead.hpp"
 #include "pl/common/scan.hpp"
 #include "pl/common/text.hpp"
 #include "pl/maps/drive_record.hpp"
@@ -106,6 +107,19 @@ struct DriveOdometry {
   bool deskew = false;
 };
 
+// The loop-closure cloud of keyframe `i` (`frame`), corrected for the sweep by the motion from scan
+// a to scan b at constant velocity when the merge corrects this drive's scans.
+std::vector<Eigen::Vector3f> keyframe_cloud(Frame& frame, const Dataset& ds, const PoseList& poses, std::size_t a, std::size_t b,
+                                            const GloamConfig& cfg) {
+  const double sweep_s = ds.meta.sensor.rate_hz > 0 ? 1.0 / ds.meta.sensor.rate_hz : cfg.merge.sweep_s;
+  const double dt = b > a ? ds.times[b] - ds.times[a] : 0.0;
+  if (merge_deskews(cfg, ds) && dt > 0)
+    compensate_sweep(frame.scan, frame.times, scale_motion(poses[a].inverse() * poses[b], sweep_s / dt), sweep_s);
+  ScanPrepConfig loop_prep = cfg.merge.scan;
+  loop_prep.voxel_m = cfg.loop_voxel_m;
+  return to_points(prepare_scan(frame.scan, {}, loop_prep));
+}
+
 DriveOdometry run_odometry(const Dataset& ds, const GloamConfig& cfg, const Pose& start, const std::string& stage, const Tell& tell) {
   DriveOdometry out;
   LoamConfig lc = cfg.loam;
@@ -113,34 +127,38 @@ DriveOdometry run_odometry(const Dataset& ds, const GloamConfig& cfg, const Pose
   if (ds.meta.sensor.rate_hz > 0) lc.scan_period_s = 1.0 / ds.meta.sensor.rate_hz;
   LoamOdometry odometry(lc);
   odometry.start(start);
-  const bool deskew_clouds = merge_deskews(cfg, ds);
-  const double sweep_s = ds.meta.sensor.rate_hz > 0 ? 1.0 / ds.meta.sensor.rate_hz : cfg.merge.sweep_s;
   std::vector<double> ms;
   Pose last_keyframe = Pose::Identity();
-  ScanPrepConfig loop_prep = cfg.merge.scan;
-  loop_prep.voxel_m = cfg.loop_voxel_m;
+  // The next scan is read and its features extracted on the second core while this one registers.
+  struct Loaded {
+    Frame frame;
+    LoamFeatures features;
+    double extract_ms = 0;
+  };
+  ReadAhead<Loaded> scans(ds.size(), [&ds, &lc](std::size_t i) {
+    Loaded l{ds.load_frame(i), {}};
+    const auto t0 = std::chrono::steady_clock::now();
+    l.features = extract_loam_features(l.frame.scan, l.frame.rings, lc);
+    l.extract_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return l;
+  });
   Frame first;
   for (std::size_t i = 0; i < ds.size(); ++i) {
-    Frame frame = ds.load_frame(i);
-    LoamFrame f = odometry.add(frame.scan, frame.rings, ds.times[i]);
+    Loaded loaded = scans.next();
+    Frame& frame = loaded.frame;
+    LoamFrame f = odometry.add(std::move(loaded.features), ds.times[i]);
     out.poses.push_back(f.pose);
     out.information.push_back(f.information);
-    ms.push_back(f.ms);
+    ms.push_back(f.ms + loaded.extract_ms);  // the scan's whole odometry time, wherever it ran
     out.degenerate += f.degenerate;
-    // A keyframe's cloud, corrected by the motion since the scan before as a constant velocity; the
-    // first scan's by the motion to the second, once that is known.
-    auto keep = [&](Frame& kf, std::size_t a, std::size_t b) {
-      const double dt = b > a ? ds.times[b] - ds.times[a] : 0.0;
-      if (deskew_clouds && dt > 0)
-        compensate_sweep(kf.scan, kf.times, scale_motion(out.poses[a].inverse() * out.poses[b], sweep_s / dt), sweep_s);
-      out.keyframe_clouds.push_back(to_points(prepare_scan(kf.scan, {}, loop_prep)));
-    };
-    if (cfg.loops && i == 1) keep(first, 0, 1);
+    // A keyframe's cloud, corrected by the motion since the scan before; the first scan's by the
+    // motion to the second, once that is known.
+    if (cfg.loops && i == 1) out.keyframe_clouds.push_back(keyframe_cloud(first, ds, out.poses, 0, 1, cfg));
     if (cfg.loops && i == 0) {
       first = std::move(frame);
-      if (ds.size() == 1) keep(first, 0, 0);
+      if (ds.size() == 1) out.keyframe_clouds.push_back(keyframe_cloud(first, ds, out.poses, 0, 0, cfg));
     } else if (cfg.loops && is_new_keyframe(last_keyframe, f.pose, cfg.graph)) {
-      keep(frame, i - 1, i);
+      out.keyframe_clouds.push_back(keyframe_cloud(frame, ds, out.poses, i - 1, i, cfg));
     }
     if (i == 0 || is_new_keyframe(last_keyframe, f.pose, cfg.graph)) last_keyframe = f.pose;
     tell.progress(stage, i + 1, ds.size());
@@ -150,22 +168,15 @@ DriveOdometry run_odometry(const Dataset& ds, const GloamConfig& cfg, const Pose
   return out;
 }
 
-// The loop-closure clouds of a base map's drive at the graph's keyframes: read again, corrected for the
-// sweep by the motion from the scan before, as run_odometry keeps them for a drive it runs.
+// The loop-closure clouds of a base map's drive at the graph's keyframes: read again and corrected as
+// run_odometry keeps them for a drive it runs.
 std::vector<std::vector<Eigen::Vector3f>> fixed_keyframe_clouds(const Dataset& ds, const PoseList& poses,
                                                                 const std::vector<std::size_t>& keyframes, const GloamConfig& cfg) {
-  const bool deskew_clouds = merge_deskews(cfg, ds);
-  const double sweep_s = ds.meta.sensor.rate_hz > 0 ? 1.0 / ds.meta.sensor.rate_hz : cfg.merge.sweep_s;
-  ScanPrepConfig loop_prep = cfg.merge.scan;
-  loop_prep.voxel_m = cfg.loop_voxel_m;
   std::vector<std::vector<Eigen::Vector3f>> clouds;
   for (std::size_t i : keyframes) {
     Frame frame = ds.load_frame(i);
     const std::size_t a = i > 0 ? i - 1 : 0, b = i > 0 ? i : std::min<std::size_t>(1, ds.size() - 1);
-    const double dt = ds.times[b] - ds.times[a];
-    if (deskew_clouds && dt > 0)
-      compensate_sweep(frame.scan, frame.times, scale_motion(poses[a].inverse() * poses[b], sweep_s / dt), sweep_s);
-    clouds.push_back(to_points(prepare_scan(frame.scan, {}, loop_prep)));
+    clouds.push_back(keyframe_cloud(frame, ds, poses, a, b, cfg));
   }
   return clouds;
 }

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
 #include <numeric>
 #include <string>
 
@@ -95,16 +96,29 @@ class FeatureGrid {
   }
 
   // Up to 5 nearest points to q within sqrt(max_d2), from the 8 cells nearest q (exact within half a
-  // cell). Returns how many were found, nearest first.
+  // cell). Returns how many were found, nearest first. A cell is skipped when its box lies no nearer
+  // than the fifth point found so far: most queries then read two or three cells, not eight.
   int nearest5(const Eigen::Vector3f& q, float max_d2, Eigen::Vector3f out[5]) const {
     float d2s[5];
     int n = 0;
     const float fx = q.x() * inv_, fy = q.y() * inv_, fz = q.z() * inv_;
     const float flx = std::floor(fx), fly = std::floor(fy), flz = std::floor(fz);
     const auto ix = static_cast<std::int64_t>(flx), iy = static_cast<std::int64_t>(fly), iz = static_cast<std::int64_t>(flz);
-    const std::int64_t sx = fx - flx < 0.5f ? -1 : 1, sy = fy - fly < 0.5f ? -1 : 1, sz = fz - flz < 0.5f ? -1 : 1;
+    const float ux = fx - flx, uy = fy - fly, uz = fz - flz;
+    const std::int64_t sx = ux < 0.5f ? -1 : 1, sy = uy < 0.5f ? -1 : 1, sz = uz < 0.5f ? -1 : 1;
+    // Squared distance from q to the shared face along each axis (slightly shrunk against rounding).
+    const float c2 = cell_ * cell_ * 0.9999f;
+    const float bx = (sx < 0 ? ux : 1 - ux), by = (sy < 0 ? uy : 1 - uy), bz = (sz < 0 ? uz : 1 - uz);
+    const float ax = bx * bx * c2, ay = by * by * c2, az = bz * bz * c2;
+    std::uint64_t keys[8];
     for (int k = 0; k < 8; ++k) {
-      const std::uint32_t* found = table_.find(pack_cell(ix + ((k & 1) ? sx : 0), iy + ((k & 2) ? sy : 0), iz + ((k & 4) ? sz : 0)));
+      keys[k] = pack_cell(ix + ((k & 1) ? sx : 0), iy + ((k & 2) ? sy : 0), iz + ((k & 4) ? sz : 0));
+      table_.prefetch(keys[k]);
+    }
+    for (int k = 0; k < 8; ++k) {
+      const float box = ((k & 1) ? ax : 0.0f) + ((k & 2) ? ay : 0.0f) + ((k & 4) ? az : 0.0f);
+      if (box >= max_d2 || (n == 5 && box >= d2s[4])) continue;
+      const std::uint32_t* found = table_.find(keys[k]);
       if (!found) continue;
       const std::uint32_t c = *found;
       const Eigen::Vector3f* pts = &pool_[static_cast<std::size_t>(c) * cap_];
@@ -141,6 +155,7 @@ class FeatureGrid {
 struct Match {
   Eigen::Vector3f s;
   registration::FeatureTarget target;
+  bool edge = false;
 };
 
 // Normal equations of the matches at (R, t), Cauchy-weighted, pairs beyond max_res dropped.
@@ -164,8 +179,6 @@ registration::NormalEquations accumulate(const std::vector<Match>& matches, cons
 }
 
 }  // namespace
-
-// An edge pick}  // namespace
 
 // An edge pick suppresses its ring neighbours up to the first gap longer than this (squared, m^2):
 // across a gap the next point belongs to another surface and may be an edge of its own.
@@ -297,6 +310,7 @@ struct LoamOdometry::Impl {
   double t_last = 0, t_prev = 0;
   std::size_t scans = 0;
   std::vector<Match> matches;
+  std::vector<std::vector<Match>> parts;  // one a search thread
 
   explicit Impl(const LoamConfig& c)
       : cfg(c), edges(c.map_cell_m, c.edge_voxel_m, c.map_points_per_cell), planes(c.map_cell_m, c.plane_voxel_m, c.map_points_per_cell) {}
@@ -321,25 +335,39 @@ struct LoamOdometry::Impl {
   }
 
   // Pairs every feature with its line or plane in the map at (R, t). Returns edges and planes matched.
+  // The features are cut into cfg.threads runs searched at once; the pairs keep the features' order.
   std::pair<int, int> match(const LoamFeatures& f, const Eigen::Matrix3f& R, const Eigen::Vector3f& t) {
+    const std::size_t n = f.edges.size() + f.planes.size();
+    const std::size_t runs = std::min<std::size_t>(static_cast<std::size_t>(cfg.threads), std::max<std::size_t>(1, n / 512));
+    parts.resize(runs);
+    const auto search = [&](std::size_t k) {
+      const std::size_t b = n * k / runs, e = n * (k + 1) / runs;
+      const float max_d2 = static_cast<float>(cfg.max_neighbour_m * cfg.max_neighbour_m);
+      Eigen::Vector3f nb[5];
+      Match m;
+      parts[k].clear();
+      for (std::size_t i = b; i < e; ++i) {
+        const bool edge = i < f.edges.size();
+        const Eigen::Vector3f& s = edge ? f.edges[i] : f.planes[i - f.edges.size()];
+        const bool fitted = edge ? edges.nearest5(R * s + t, max_d2, nb) == 5 && registration::fit_line(nb, 5, cfg.line_ratio, m.target)
+                                 : planes.nearest5(R * s + t, max_d2, nb) == 5 && registration::fit_plane(nb, 5, cfg.plane_fit_m, m.target);
+        if (!fitted) continue;
+        m.s = s;
+        m.edge = edge;
+        parts[k].push_back(m);
+      }
+    };
+    std::vector<std::future<void>> others;
+    for (std::size_t k = 1; k < runs; ++k) others.push_back(std::async(std::launch::async, search, k));
+    search(0);
+    for (auto& o : others) o.get();
     matches.clear();
-    const float max_d2 = static_cast<float>(cfg.max_neighbour_m * cfg.max_neighbour_m);
-    Eigen::Vector3f nb[5];
-    Match m;
-    int ne = 0, np = 0;
-    for (const auto& s : f.edges) {
-      if (edges.nearest5(R * s + t, max_d2, nb) < 5 || !registration::fit_line(nb, 5, cfg.line_ratio, m.target)) continue;
-      m.s = s;
-      matches.push_back(m);
-      ++ne;
+    int ne = 0;
+    for (const auto& part : parts) {
+      matches.insert(matches.end(), part.begin(), part.end());
+      for (const Match& m : part) ne += m.edge;
     }
-    for (const auto& s : f.planes) {
-      if (planes.nearest5(R * s + t, max_d2, nb) < 5 || !registration::fit_plane(nb, 5, cfg.plane_fit_m, m.target)) continue;
-      m.s = s;
-      matches.push_back(m);
-      ++np;
-    }
-    return {ne, np};
+    return {ne, static_cast<int>(matches.size()) - ne};
   }
 };
 
@@ -347,6 +375,7 @@ namespace {
 const LoamConfig& checked(const LoamConfig& cfg) {
   if (!(cfg.map_cell_m > 0) || !(cfg.edge_voxel_m >= 0) || !(cfg.plane_voxel_m >= 0) || !(cfg.kernel_m > 0))
     throw Error("LOAM: the map cell and the kernel must be positive, the voxel sizes not negative");
+  if (cfg.threads < 1) throw Error("LOAM: threads must be at least 1, not " + std::to_string(cfg.threads));
   return cfg;
 }
 }  // namespace
@@ -366,9 +395,15 @@ const LoamConfig& LoamOdometry::config() const { return impl_->cfg; }
 
 LoamFrame LoamOdometry::add(const Scan& scan, const std::vector<std::uint16_t>& rings, double t) {
   const auto t0 = std::chrono::steady_clock::now();
+  LoamFrame out = add(extract_loam_features(scan, rings, impl_->cfg), t);
+  out.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+LoamFrame LoamOdometry::add(LoamFeatures f, double t) {
+  const auto t0 = std::chrono::steady_clock::now();
   Impl& m = *impl_;
   const LoamConfig& cfg = m.cfg;
-  LoamFeatures f = extract_loam_features(scan, rings, cfg);
   LoamFrame out;
   out.pose = m.predict(t);
 

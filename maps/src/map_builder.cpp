@@ -3,9 +3,12 @@
 #include <Eigen/Eigenvalues>
 #include <array>
 #include <cmath>
+#include <cstdlib>
+#include <string>
 
 #include "pl/common/error.hpp"
 #include "pl/common/pose.hpp"
+#include "pl/common/read_ahead.hpp"
 #include "pl/registration/motion.hpp"
 
 namespace pl::maps {
@@ -52,12 +55,24 @@ VoxelAccumulator::VoxelAccumulator(double voxel) : inv_(1.0 / voxel) {
 
 
 VoxelAccumulator::Sum& VoxelAccumulator::accumulate(const Eigen::Vector3d& p, float intensity) {
-  auto [it, fresh] = index_.try_emplace(voxel_index(p, inv_), static_cast<std::uint32_t>(sums_.size()));
+  // pack_cell holds 21 bits a coordinate: +-2^20 voxels (+-210 km at 0.2 m) round the map's origin.
+  constexpr std::int64_t kLimit = std::int64_t{1} << 20;
+  const VoxelIndex v = voxel_index(p, inv_);
+  if (std::abs(v[0]) >= kLimit || std::abs(v[1]) >= kLimit || std::abs(v[2]) >= kLimit)
+    throw Error("a point at (" + std::to_string(p.x()) + ", " + std::to_string(p.y()) + ", " + std::to_string(p.z()) +
+                ") m lies too far from the map's origin for its voxels; give poses in a local frame (pl-map build "
+                "takes GPS in a local ENU frame) or a larger voxel");
+  // Neighbouring returns of a ring often share a voxel: the last one is looked up without the table.
+  const std::uint64_t key = registration::pack_cell(v[0], v[1], v[2]);
+  bool fresh = false;
+  const std::uint32_t at = key == last_key_ ? last_at_ : *index_.insert(key, static_cast<std::uint32_t>(sums_.size()), fresh);
+  last_key_ = key;
+  last_at_ = at;
   if (fresh) {
     sums_.push_back({p.x(), p.y(), p.z(), intensity, 1});
     return sums_.back();
   }
-  Sum& s = sums_[it->second];
+  Sum& s = sums_[at];
   s.x += p.x(), s.y += p.y(), s.z += p.z(), s.i += intensity, ++s.n;
   return s;
 }
@@ -117,29 +132,29 @@ void visit_scans(const std::vector<PlacedDrive>& drives, const MapBuildConfig& c
                  const std::function<void(std::size_t, std::size_t, const Pose&, const Scan&)>& visit) {
   if (cfg.every == 0) throw Error("every must be at least 1");
   if (drives.size() > 64) throw Error("a map is built from at most 64 drives, not " + std::to_string(drives.size()));
-  std::size_t total = 0;
-  for (const PlacedDrive& d : drives) {
+  std::vector<std::pair<std::size_t, std::size_t>> jobs;  // (drive, scan)
+  for (std::size_t k = 0; k < drives.size(); ++k) {
+    const PlacedDrive& d = drives[k];
     if (d.poses->size() != d.dataset->size())
       throw Error("the map needs one pose per scan: " + std::to_string(d.poses->size()) + " poses for " +
                   std::to_string(d.dataset->size()) + " scans of " + d.dataset->dir);
     const std::size_t n = d.dataset->size();
     const std::size_t last = std::min(cfg.last, n == 0 ? 0 : n - 1);
-    if (n > 0 && last >= cfg.first) total += (last - cfg.first) / cfg.every + 1;
+    for (std::size_t i = cfg.first; i <= last && i < n; i += cfg.every) jobs.emplace_back(k, i);
   }
-  if (count) count(total);
-  for (std::size_t k = 0; k < drives.size(); ++k) {
+  if (count) count(jobs.size());
+  // Each scan is read, corrected and cropped on the second core while the caller merges the one before.
+  ReadAhead<Scan> scans(jobs.size(), [&](std::size_t j) {
+    const auto [k, i] = jobs[j];
     const Dataset& ds = *drives[k].dataset;
-    const Trajectory& poses = *drives[k].poses;
     ScanPrepConfig prep = cfg.scan;
     prep.sensor_beams = ds.meta.sensor.beams;
     prep.voxel_m = 0.0;  // the accumulator voxelizes, exactly, in the world frame
-    const std::size_t last = std::min(cfg.last, ds.size() == 0 ? 0 : ds.size() - 1);
-    for (std::size_t i = cfg.first; i <= last && i < ds.size(); i += cfg.every) {
-      Frame frame = ds.load_frame(i, prep.beams > 0 && prep.beams < prep.sensor_beams);
-      if (drives[k].deskew) deskew(frame.scan, frame.times, poses, i, drives[k].sweep_s);  // before points are dropped
-      visit(k, i, poses.poses[i], prepare_scan(frame.scan, frame.rings, prep));
-    }
-  }
+    Frame frame = ds.load_frame(i, prep.beams > 0 && prep.beams < prep.sensor_beams);
+    if (drives[k].deskew) deskew(frame.scan, frame.times, *drives[k].poses, i, drives[k].sweep_s);  // before points are dropped
+    return prepare_scan(frame.scan, frame.rings, prep);
+  });
+  for (const auto& [k, i] : jobs) visit(k, i, drives[k].poses->poses[i], scans.next());
 }
 
 }  // namespace

@@ -277,14 +277,21 @@ TEST(LoamOdometry, FollowsASimulatedDrive) {
   cfg.deskew = true;
   pl::maps::LoamOdometry odo(cfg);
   odo.start(ds.ground_truth.poses[0]);
+  // The same drive on one thread, the features extracted by the caller: the same poses to the bit.
+  pl::maps::LoamConfig one_cfg = cfg;
+  one_cfg.threads = 1;
+  pl::maps::LoamOdometry one(one_cfg);
+  one.start(ds.ground_truth.poses[0]);
   double path = 0, worst_t = 0, worst_r = 0;
   std::vector<double> rel;
   pl::Pose last = pl::Pose::Identity();
   int degenerate = 0;
   for (std::size_t i = 0; i < ds.size(); ++i) {
     pl::Scan scan = ds.load_scan(i);
-    pl::maps::LoamFrame f = odo.add(scan, ds.rings(scan), ds.times[i]);
+    const std::vector<std::uint16_t> rings = ds.rings(scan);
+    pl::maps::LoamFrame f = odo.add(scan, rings, ds.times[i]);
     degenerate += f.degenerate;
+    ASSERT_TRUE(one.add(pl::maps::extract_loam_features(scan, rings, one_cfg), ds.times[i]).pose.matrix() == f.pose.matrix()) << "scan " << i;
     // The first scan goes into the local map as swept: with no velocity yet it cannot be deskewed,
     // and the second scan registers to it some centimetres off. From the third on the velocity is known.
     if (i > 1) {

@@ -36,6 +36,28 @@ TEST(Maps, VoxelAccumulatorAveragesOverAllScans) {
   EXPECT_FLOAT_EQ(intensity[1], 5.0f);
 }
 
+TEST(Maps, VoxelAccumulatorFindsAVoxelAgainAfterOthersAndRefusesPointsBeyondItsReach) {
+  pl::maps::VoxelAccumulator acc(0.2);
+  const Eigen::Vector3d far(150e3, -150e3, 40.0);  // 150 km out: still within reach at 0.2 m
+  acc.add(far, 1.0f);
+  acc.add({0.05, 0.05, 0.05}, 2.0f);
+  acc.add(far + Eigen::Vector3d(0.01, 0.01, 0.01), 3.0f);  // the first voxel again, after another
+  acc.add({0.15, 0.05, 0.05}, 4.0f);
+  std::vector<float> intensity;
+  auto c = acc.centroids(intensity);
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_TRUE(c[0].isApprox(far + Eigen::Vector3d(0.005, 0.005, 0.005)));
+  EXPECT_FLOAT_EQ(intensity[0], 2.0f);
+  EXPECT_FLOAT_EQ(intensity[1], 3.0f);
+  try {
+    acc.add({0.0, 300e3, 0.0}, 1.0f);  // 300 km: beyond 2^20 voxels
+    FAIL() << "no error";
+  } catch (const pl::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("too far from the map's origin"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(acc.size(), 2u);  // nothing added by the refused point
+}
+
 TEST(Maps, NormalsOfPlanesFarFromTheOrigin) {
   pl::Points3d pts;
   Eigen::Vector3d offset(3500.0, -2200.0, 80.0);

@@ -5,7 +5,7 @@
 // The local map is two voxel hashes (edges, planes) of points in the map frame, thinned to one point
 // per leaf and pruned by distance as the vehicle moves: it is updated by the keyframes, never rebuilt.
 // Map points are float offsets from the first pose (~0.1 mm within a few kilometres).
-// Everything runs on the calling thread.
+// The correspondence search is split over LoamConfig::threads; the rest runs on the calling thread.
 #pragma once
 
 #include <Eigen/Core>
@@ -70,6 +70,9 @@ struct LoamConfig {
   double redeskew_deg = 0.05;       // more than this: deskewed again with it and solved once more
   double scan_period_s = 0.1;       // sweep time; the sensor spins counter-clockwise seen from above and
                                     // the scan's time is when it faces straight ahead (KITTI's HDL-64E)
+  // Work.
+  int threads = 2;                  // the correspondence search split over this many threads; the
+                                    // result does not depend on it
 };
 
 // The features of one scan, in the sensor frame.
@@ -84,7 +87,7 @@ LoamFeatures extract_loam_features(const Scan& scan, const std::vector<std::uint
 
 struct LoamFrame {
   Pose pose = Pose::Identity();  // sensor pose in the odometry frame
-  double ms = 0;                 // time spent in add()
+  double ms = 0;                 // time spent in add(), extracting the features included
   int edges = 0, planes = 0;     // scan features used (matched at the last search)
   int iterations = 0;            // Gauss-Newton steps
   bool degenerate = false;       // too few matches, or a direction the scan does not constrain
@@ -107,6 +110,9 @@ class LoamOdometry {
   // origin unless start() was called. Constant-velocity prediction, then scan-to-map. An empty or
   // featureless scan keeps the prediction and comes back flagged degenerate.
   LoamFrame add(const Scan& scan, const std::vector<std::uint16_t>& rings, double t);
+  // The same with the scan's features already extracted (with config()'s settings), e.g. on another
+  // thread while the previous scan registers; `ms` then leaves the extraction out.
+  LoamFrame add(LoamFeatures features, double t);
   // The pose of the next (first) scan; call before the first add().
   void start(const Pose& first_pose);
 

@@ -4,13 +4,13 @@
 
 #include <functional>
 #include <map>
-#include <unordered_map>
 #include <vector>
 
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
 #include "pl/common/voxel.hpp"
 #include "pl/recordings/dataset.hpp"
+#include "pl/registration/cell_table.hpp"
 #include "pl/registration/place_index.hpp"
 
 namespace pl::maps {
@@ -38,7 +38,9 @@ class VoxelAccumulator {
   };
   Sum& accumulate(const Eigen::Vector3d& p, float intensity);  // the point added to its voxel's sums
   double inv_;
-  std::unordered_map<VoxelIndex, std::uint32_t, VoxelIndexHash> index_;
+  registration::CellTable<std::uint32_t> index_;  // voxel -> its sums
+  std::uint64_t last_key_ = ~std::uint64_t{0};     // the voxel of the last point added (no key is all ones)
+  std::uint32_t last_at_ = 0;
   std::vector<Sum> sums_;
 };
 
