@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Runs every benchmark, with the real data beside the repository when it is there.
-#   bench/run.sh BIN_DIR
+#   [PL_BEFORE_BIN=DIR] bench/run.sh BIN_DIR   (DIR: the build whose maps bench/map_bytes.sh compares with)
 set -euo pipefail
 bin=${1:?usage: bench/run.sh BIN_DIR}
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -22,6 +22,14 @@ echo "== bench_sim: simulated scans per second, one core"
 echo
 echo "== bench_server: tile serving against nginx, ROI queries, tile compression"
 bash "$(dirname "$0")/bench_server.sh" "$bin" "$root/build/bench"
+
+echo
+echo "== map_bytes: map bytes per attribute and the localizer's APE on each map, BEFORE_BIN's tiles against these (PL_BEFORE_BIN=DIR)"
+if [[ -n "${PL_BEFORE_BIN:-}" ]]; then
+  bash "$(dirname "$0")/map_bytes.sh" "$PL_BEFORE_BIN" "$bin" "$root/build/bench/map_bytes"
+else
+  echo "skipped: set PL_BEFORE_BIN to the bin folder of the build to compare with (e.g. main's)"
+fi
 
 echo
 echo "== viewer: the map viewer in headless Chromium (software WebGL) on loopback: time to first tiles, frames per second"
