@@ -16,8 +16,13 @@ localize() {
   out=$(scans_stem "$name")
   "$bin/pl-localize" --dataset "$rates_drive" --db "${db:-$rates_db}" --map "$rates_map" --beams 16 --scans odd --odometry lidar \
     --init gt --out "$out.tum" --kitti-out "$out.txt" --timing "$out.csv" "$@" >"$out.log"
-  # Per scan: error, protection level, registration ms, status.
-  # (Lines of a pose file's header, "# ...", are not poses: r counts a file's other lines.)
+  scan_rows "$out.txt" "$gt" "$out.csv" >"$out.scans"
+}
+
+# Per scan of a KITTI pose file EST against GT, joined with pl-localize's timing CSV: 3-D error,
+# protection level, milliseconds (odometry + registration + checks), status, horizontal error.
+# (Lines of a pose file's header, "# ...", are not poses: r counts a file's other lines.)
+scan_rows() {
   awk '
     FNR == 1 { file++; r = 0 }
     /^#/ { next }
@@ -28,7 +33,7 @@ localize() {
     r == 1 { for (i = 1; i in f; i++) col[f[i]] = i; next }
     { k = r - 1; h = (ex[k] - gx[k]) ^ 2 + (ey[k] - gy[k]) ^ 2
       printf "%.4f %s %s %s %.4f\n", sqrt(h + (ez[k] - gz[k]) ^ 2), f[col["protection_m"]], f[col["registration_ms"]] + f[col["odometry_ms"]] + f[col["integrity_ms"]], f[col["status"]],
-        sqrt(h) }' "$out.txt" "$gt" "$out.csv" >"$out.scans"
+        sqrt(h) }' "$1" "$2" "$3"
 }
 
 # Where run NAME's files go (spaces and commas out of the name).

@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
 # Runs every benchmark, with the real data beside the repository when it is there.
-#   bench/run.sh BIN_DIR        (PL_BENCH_BEFORE=REV: the earlier build the speed figures are set beside)
+#   bench/run.sh BIN_DIR     (PL_BENCH_BEFORE=REV: the earlier build the speed and size figures are set beside)
 set -euo pipefail
 bin=${1:?usage: bench/run.sh BIN_DIR}
 root=$(cd "$(dirname "$0")/.." && pwd)
 data=$("$root/tools/shared-data.sh" || true)
 scan=""
+# The build the speed and size figures are set beside: main before the work of 2026-12-07 on them.
+before_rev=${PL_BENCH_BEFORE:-8f68d64}
+before_bin=$(bash "$(dirname "$0")/before_build.sh" "$before_rev" "$root/build/bench")
 if [[ -n "$data" ]]; then scan="$data/kitti-raw-2011_09_26_drive_0005_sync/velodyne_points/data/0000000000.bin"; fi
 
 echo "== bench_voxel: voxel grid vs pcl::VoxelGrid"
@@ -22,6 +25,10 @@ echo "== bench_sim: simulated scans per second, one core"
 echo
 echo "== bench_server: tile serving against nginx, ROI queries, tile compression"
 bash "$(dirname "$0")/bench_server.sh" "$bin" "$root/build/bench"
+
+echo
+echo "== map_bytes: map bytes per attribute and the localizer's APE on each map, $before_rev's tiles beside these"
+bash "$(dirname "$0")/map_bytes.sh" "$before_bin" "$bin" "$root/build/bench/map_bytes"
 
 echo
 echo "== viewer: the map viewer in headless Chromium (software WebGL) on loopback: time to first tiles, frames per second"
@@ -67,10 +74,7 @@ echo "== gloam_kitti00: G-LOAM map building on the KITTI 00 trajectory, all 4,54
 bash "$(dirname "$0")/gloam_kitti00.sh" "$bin" "$root/build/bench"
 
 echo
-# The build the speed and size figures are set beside: main before the work of 2026-12-07 on them.
-before_rev=${PL_BENCH_BEFORE:-8f68d64}
 echo "== gloam_speed: the whole G-LOAM build of 1,200 KITTI 00 scans and of the town, this build beside $before_rev"
-before_bin=$(bash "$(dirname "$0")/before_build.sh "$before_rev" "$root/build/bench")
 bash "$(dirname "$0")/gloam_speed.sh" "$before_bin" "$bin" "$root/build/bench/gloam_speed"
 
 echo

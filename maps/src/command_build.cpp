@@ -153,6 +153,9 @@ void add_tile(cli::Tool& tool, std::ostream& out) {
               cli::above(0))->default_str("");
   cli::number(c, "--max-error", s->cfg.codec.max_error_m, "largest position error after decoding, metres",
               cli::above_up_to(0, 0.1));
+  cli::number(c, "--normal-bits", s->cfg.codec.normal_bits, "bits of each of a normal's two octahedral coordinates", cli::between(2, 30));
+  cli::number(c, "--intensity-bits", s->cfg.codec.intensity_bits, "bits of each intensity value (the viewer's colour only)",
+              cli::between(1, 30));
   c.add_option("--note", s->cfg.note, "the version's note (default: \"tiled from CLOUD\")");
   c.add_option("--places", s->places, "the places stored with the version for relocalization: a .places FILE, none, or auto "
                "(the CLOUD's name with .places, as pl-map build writes it, when that file exists)")->type_name("FILE|none|auto");

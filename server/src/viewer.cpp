@@ -225,7 +225,7 @@ Overview make_overview(store::Store& db, const std::string& map, std::int64_t ve
     if (intensity) out.intensity.push_back(static_cast<float>(c.intensity / n));
   }
   TileCodecConfig cfg;
-  cfg.max_error_m = 0.01 * o.voxel;  // 2 cm on 2 m voxels: invisible, and fewer bits than the tiles' 5 mm
+  cfg.max_error_m = 0.01 * o.voxel;  // 2 cm on 2 m voxels: invisible
   o.bytes = std::make_shared<const std::string>(encode_tile(out, cfg));
   o.hash = store::content_hash(*o.bytes);
   o.points = out.size();

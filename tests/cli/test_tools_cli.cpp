@@ -63,6 +63,8 @@ TEST(ToolsCli, PlMapHelpShowsTheConfigDefaults) {
   EXPECT_DOUBLE_EQ(number_default(tile, "--voxel"), i.voxel_m);
   EXPECT_DOUBLE_EQ(number_default(tile, "--tile-size"), i.tile_size_m);
   EXPECT_DOUBLE_EQ(number_default(tile, "--max-error"), i.codec.max_error_m);
+  EXPECT_DOUBLE_EQ(number_default(tile, "--normal-bits"), i.codec.normal_bits);
+  EXPECT_DOUBLE_EQ(number_default(tile, "--intensity-bits"), i.codec.intensity_bits);
   EXPECT_NE(tile.find("default: 3 x --voxel"), std::string::npos) << tile;
 }
 

@@ -57,9 +57,11 @@ ChangeReport drive(const std::string& vehicle, const std::string& id, double sta
   box.key = {2, 0};
   seen1.key = {0, 1};
   for (auto* t : {&seen0, &car, &box, &seen1}) t->scans = 20;
-  for (int x = 50; x < 58; ++x)
-    for (int y = 10; y < 14; ++y)
-      for (int z = 1; z < 3; ++z) car.cells.push_back({x, y, z, 0, 0, 0, 6});
+  // The car's 0.5 m cells and one more all round: its faces lie on cell edges, where the tiles'
+  // quantization (up to 20 mm) puts their points on either side.
+  for (int x = 49; x < 59; ++x)
+    for (int y = 9; y < 15; ++y)
+      for (int z = 1; z < 4; ++z) car.cells.push_back({x, y, z, 0, 0, 0, 6});
   for (int x = 90; x < 96; ++x)
     for (int z = 0; z < 4; ++z) box.cells.push_back({x, 20, z, 8, 0, 0, 0});
   for (int x = 4500; x < 4800; x += 20)

@@ -15,6 +15,7 @@
 #include <set>
 
 #include "headless_chromium.hpp"
+#include "pl/common/tile_codec.hpp"
 #include "pl/schema/http_client.hpp"
 #include "server_process.hpp"
 #include "test_util.hpp"
@@ -126,8 +127,8 @@ TEST(Viewer, ShowsTheTilesOfTheRoiOverviewAndTheDiffOfTwoVersions) {
   for (const auto& p : f.cloud)
     for (int c = 0; c < 3; ++c) lo[c] = std::min(lo[c], p[c]), hi[c] = std::max(hi[c], p[c]);
   for (int c = 0; c < 3; ++c) {
-    EXPECT_NEAR(state["stats"]["min"][c].get<double>(), lo[c], 0.006) << c;
-    EXPECT_NEAR(state["stats"]["max"][c].get<double>(), hi[c], 0.006) << c;
+    EXPECT_NEAR(state["stats"]["min"][c].get<double>(), lo[c], pl::TileCodecConfig{}.max_error_m + 0.001) << c;
+    EXPECT_NEAR(state["stats"]["max"][c].get<double>(), hi[c], pl::TileCodecConfig{}.max_error_m + 0.001) << c;
   }
 
   // Intensity instead of height: still drawn.

@@ -19,11 +19,12 @@ struct TileCloud {
 };
 
 struct TileCodecConfig {
-  double max_error_m = 0.005;  // largest position error after decoding, per axis
-  int normal_bits = 8;  // octahedral quantization of the normals: ~0.45 deg, finer than normals estimated
-                        // from 0.2 m voxels are good to (10 bits cost 11 % more bytes for noise)
-  int intensity_bits = 8;
-  int speed = 5;               // Draco's encoding speed, 0 (best compression) .. 10 (fastest)
+  double max_error_m = 0.02;  // largest position error after decoding, per axis: a tenth of a 0.2 m
+                              // voxel, which ICP averages out over a scan's thousands of pairs
+  int normal_bits = 6;        // octahedral quantization of the normals: ~2 deg, about what normals
+                              // estimated from 0.2 m voxels are good to
+  int intensity_bits = 4;     // intensity only colours the viewer (the localizer never reads it)
+  int speed = 5;              // Draco's encoding speed, 0 (best compression) .. 10 (fastest)
 };
 
 // Encodes the cloud. Throws pl::Error for mismatched attribute counts or non-finite values.
