@@ -43,6 +43,10 @@ else
 fi
 
 echo
+echo "== localize_speed: drive 0005's protocol on one core, time a scan by stage, this build beside $before_rev and PCL"
+bash "$(dirname "$0")/localize_speed.sh" "$before_bin" "$bin" "$root/build/bench"
+
+echo
 echo "== sim_vs_real: drive 0005 beside pl-sim on the same trajectory and protocol"
 bash "$(dirname "$0")/sim_vs_real.sh" "$bin" "$root/build/bench"
 
