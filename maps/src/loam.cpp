@@ -155,7 +155,6 @@ class FeatureGrid {
 struct Match {
   Eigen::Vector3f s;
   registration::FeatureTarget target;
-  bool edge = false;
 };
 
 // Normal equations of the matches at (R, t), Cauchy-weighted, pairs beyond max_res dropped.
@@ -311,6 +310,7 @@ struct LoamOdometry::Impl {
   std::size_t scans = 0;
   std::vector<Match> matches;
   std::vector<std::vector<Match>> parts;  // one a search thread
+  std::vector<int> part_edges;            // the edges among each part's pairs
 
   explicit Impl(const LoamConfig& c)
       : cfg(c), edges(c.map_cell_m, c.edge_voxel_m, c.map_points_per_cell), planes(c.map_cell_m, c.plane_voxel_m, c.map_points_per_cell) {}
@@ -340,6 +340,7 @@ struct LoamOdometry::Impl {
     const std::size_t n = f.edges.size() + f.planes.size();
     const std::size_t runs = std::min<std::size_t>(static_cast<std::size_t>(cfg.threads), std::max<std::size_t>(1, n / 512));
     parts.resize(runs);
+    part_edges.assign(runs, 0);
     const auto search = [&](std::size_t k) {
       const std::size_t b = n * k / runs, e = n * (k + 1) / runs;
       const float max_d2 = static_cast<float>(cfg.max_neighbour_m * cfg.max_neighbour_m);
@@ -353,7 +354,7 @@ struct LoamOdometry::Impl {
                                  : planes.nearest5(R * s + t, max_d2, nb) == 5 && registration::fit_plane(nb, 5, cfg.plane_fit_m, m.target);
         if (!fitted) continue;
         m.s = s;
-        m.edge = edge;
+        part_edges[k] += edge;
         parts[k].push_back(m);
       }
     };
@@ -363,9 +364,9 @@ struct LoamOdometry::Impl {
     for (auto& o : others) o.get();
     matches.clear();
     int ne = 0;
-    for (const auto& part : parts) {
-      matches.insert(matches.end(), part.begin(), part.end());
-      for (const Match& m : part) ne += m.edge;
+    for (std::size_t k = 0; k < runs; ++k) {
+      matches.insert(matches.end(), parts[k].begin(), parts[k].end());
+      ne += part_edges[k];
     }
     return {ne, static_cast<int>(matches.size()) - ne};
   }
