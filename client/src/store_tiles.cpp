@@ -6,12 +6,14 @@
 #include "pl/common/tile_codec.hpp"
 #include "pl/common/tile_key.hpp"
 #include "pl/schema/store.hpp"
+#include "tile_normals.hpp"
 
 namespace pl::client {
 
 struct StoreTiles::Impl {
   store::Store db;
   std::string map;
+  double voxel_m = 0;
   std::map<TileKey, std::string> hashes;  // the whole version's index (small: one row per tile)
   std::map<std::string, std::shared_ptr<const TileCloud>> decoded;
 };
@@ -26,7 +28,7 @@ StoreTiles::StoreTiles(const std::string& db_path, const std::string& map, long 
   }
   if (!db.find_version(map, version))
     throw Error("map '" + map + "' in " + db_path + " has no version " + std::to_string(version));
-  impl_ = std::make_unique<Impl>(Impl{std::move(db), map, {}, {}});
+  impl_ = std::make_unique<Impl>(Impl{std::move(db), map, info->voxel_size, {}, {}});
   for (const auto& t : impl_->db.list_tiles(map, version)) {
     impl_->hashes[t.key] = t.hash;
     if (!extent_) extent_ = MapExtent{t.min_x, t.min_y, t.max_x, t.max_y};
@@ -52,7 +54,7 @@ std::vector<MapTile> StoreTiles::near(const Eigen::Vector2d& center, double radi
     if (!cloud) {
       const auto bytes = impl_->db.blob(it->second);
       if (!bytes) throw Error("map store is missing blob " + it->second + " (run PRAGMA integrity_check)");
-      cloud = std::make_shared<const TileCloud>(decode_tile(*bytes));
+      cloud = with_normals(decode_tile(*bytes), impl_->voxel_m);
     }
     out.push_back({key, it->second, cloud, 0});
   }

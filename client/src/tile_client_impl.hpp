@@ -25,6 +25,7 @@
 #include "pl/schema/store.hpp"
 #include "tile_index.hpp"
 #include "tile_memory.hpp"
+#include "tile_normals.hpp"
 #include "tile_server.hpp"
 #include "wire.hpp"
 
@@ -222,7 +223,7 @@ struct TileClient::Impl {
   void load_from_disk(const CachedTile& t, const std::string& bytes, const FetchPlan& plan, std::size_t rank) {
     std::shared_ptr<const TileCloud> cloud;
     try {
-      cloud = std::make_shared<const TileCloud>(decode_tile(bytes));
+      cloud = with_normals(decode_tile(bytes), manifest.voxel_size);
     } catch (const Error& e) {
       undecodable(t, e.what());
       return;
@@ -256,7 +257,7 @@ struct TileClient::Impl {
     by_key.erase(t.hash);
     reports.tile_fetched();
     disk.put_blob(t.hash, blob->bytes);  // only a tile that decodes is cached
-    keep(t, std::make_shared<const TileCloud>(std::move(blob->cloud)), blob->bytes.size(), plan, rank, false);
+    keep(t, with_normals(std::move(blob->cloud), manifest.voxel_size), blob->bytes.size(), plan, rank, false);
   }
 
   // Whether a tile whose bytes were refused twice is still left alone.

@@ -48,10 +48,10 @@ constexpr int kMaxPositionBits = 30;  // Draco's limit for quantization bits
 void check_config(const TileCodecConfig& cfg) {
   if (!(std::isfinite(cfg.max_error_m) && cfg.max_error_m > 0))
     throw Error("tile codec: max_error_m must be a positive number, got " + std::to_string(cfg.max_error_m));
-  if (cfg.normal_bits < 2 || cfg.normal_bits > 30)
-    throw Error("tile codec: normal_bits must be in [2, 30], got " + std::to_string(cfg.normal_bits));
-  if (cfg.intensity_bits < 1 || cfg.intensity_bits > 30)
-    throw Error("tile codec: intensity_bits must be in [1, 30], got " + std::to_string(cfg.intensity_bits));
+  if (cfg.normal_bits != 0 && (cfg.normal_bits < 2 || cfg.normal_bits > 30))
+    throw Error("tile codec: normal_bits must be 0 (none stored) or in [2, 30], got " + std::to_string(cfg.normal_bits));
+  if (cfg.intensity_bits < 0 || cfg.intensity_bits > 30)
+    throw Error("tile codec: intensity_bits must be 0 (none stored) or in [1, 30], got " + std::to_string(cfg.intensity_bits));
   if (cfg.speed < 0 || cfg.speed > 10)
     throw Error("tile codec: speed must be in [0, 10], got " + std::to_string(cfg.speed));
 }
@@ -175,7 +175,7 @@ HilbertKey hilbert_key(uint32_t x, uint32_t y, uint32_t z, int bits) {
 // delta prediction wants: about 2% smaller than Morton order), ties broken by every field, so the
 // order depends on the set of points only.
 std::vector<uint32_t> canonical_order(const TileCloud& cloud, const std::vector<Eigen::Vector3f>& normals,
-                                      const PositionQuantization& q) {
+                                      const std::vector<float>& intensity, const PositionQuantization& q) {
   const std::size_t n = cloud.size();
   std::vector<HilbertKey> keys(n);
   const double max_q = std::ldexp(1.0, q.bits) - 1.0;
@@ -193,8 +193,7 @@ std::vector<uint32_t> canonical_order(const TileCloud& cloud, const std::vector<
       for (int c = 0; c < 3; ++c)
         if (normals[a][c] != normals[b][c]) return normals[a][c] < normals[b][c];
     }
-    if (!cloud.intensity.empty() && cloud.intensity[a] != cloud.intensity[b])
-      return cloud.intensity[a] < cloud.intensity[b];
+    if (!intensity.empty() && intensity[a] != intensity[b]) return intensity[a] < intensity[b];
     for (int c = 0; c < 3; ++c)
       if (cloud.points[a][c] != cloud.points[b][c]) return cloud.points[a][c] < cloud.points[b][c];
     return false;
@@ -210,6 +209,7 @@ struct Attributes {
 // The point cloud as Draco will encode it; `atts` receives the attribute ids.
 std::unique_ptr<draco::PointCloud> build_point_cloud(const TileCloud& cloud,
                                                      const std::vector<Eigen::Vector3f>& normals,
+                                                     const std::vector<float>& intensity,
                                                      const PositionQuantization& q,
                                                      const std::vector<uint32_t>& order, Attributes& atts) {
   const auto n = static_cast<draco::PointIndex::ValueType>(cloud.size());
@@ -217,7 +217,7 @@ std::unique_ptr<draco::PointCloud> build_point_cloud(const TileCloud& cloud,
   builder.Start(n);
   atts.position = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
   if (!normals.empty()) atts.normal = builder.AddAttribute(draco::GeometryAttribute::NORMAL, 3, draco::DT_FLOAT32);
-  if (!cloud.intensity.empty())
+  if (!intensity.empty())
     atts.intensity = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 1, draco::DT_FLOAT32);
 
   std::vector<float> xyz(3 * cloud.size());
@@ -233,7 +233,7 @@ std::unique_ptr<draco::PointCloud> build_point_cloud(const TileCloud& cloud,
   }
   if (atts.intensity >= 0) {
     std::vector<float> values(order.size());
-    for (std::size_t k = 0; k < order.size(); ++k) values[k] = cloud.intensity[order[k]] + 0.0f;  // no -0
+    for (std::size_t k = 0; k < order.size(); ++k) values[k] = intensity[order[k]] + 0.0f;  // no -0
     builder.SetAttributeValuesForAllPoints(atts.intensity, values.data(), 0);
   }
   std::unique_ptr<draco::PointCloud> pc = builder.Finalize(false);
@@ -493,15 +493,18 @@ std::string encode_tile(const TileCloud& cloud, const TileCodecConfig& cfg) {
   check_config(cfg);
   check_cloud(cloud);
 
-  std::vector<Eigen::Vector3f> normals(cloud.normals.size());
+  // An attribute given 0 bits is not stored.
+  std::vector<Eigen::Vector3f> normals(cfg.normal_bits > 0 ? cloud.normals.size() : 0);
+  const std::vector<float> none;
+  const std::vector<float>& intensity = cfg.intensity_bits > 0 ? cloud.intensity : none;
   for (std::size_t i = 0; i < normals.size(); ++i) {
     const Eigen::Vector3d u = cloud.normals[i].cast<double>().normalized();
     for (int c = 0; c < 3; ++c) normals[i][c] = static_cast<float>(u[c]) + 0.0f;  // no -0
   }
   const PositionQuantization q = quantize_positions(cloud.points, cfg.max_error_m);
-  const std::vector<uint32_t> order = canonical_order(cloud, normals, q);
+  const std::vector<uint32_t> order = canonical_order(cloud, normals, intensity, q);
   Attributes atts;
-  const std::unique_ptr<draco::PointCloud> pc = build_point_cloud(cloud, normals, q, order, atts);
+  const std::unique_ptr<draco::PointCloud> pc = build_point_cloud(cloud, normals, intensity, q, order, atts);
 
   // Both coders unless speed 10 asks for the fast one; an empty cloud only decodes from the k-d tree
   // coder (Draco's sequential decoder refuses zero quantized points).

@@ -57,6 +57,10 @@ void check_import_config(const ImportConfig& cfg) {
   if (!(cfg.normal_radius_m >= 0) || !std::isfinite(cfg.normal_radius_m))
     throw Error("--normal-radius takes metres above 0 (or leave it out: 3 x --voxel)");
   if (!(cfg.codec.max_error_m > 0 && cfg.codec.max_error_m <= 0.1)) throw Error("--max-error takes metres in (0, 0.1]");
+  if (cfg.normal_radius_m > 0 && cfg.codec.normal_bits == 0)
+    throw Error("--normal-radius sets the normals stored in the tiles, and none are stored: give --normal-bits 6 too, or leave "
+                "--normal-radius out (the vehicle estimates the normals within 3 x the map's voxel)");
+  if (cfg.codec.normal_bits == 1) throw Error("--normal-bits takes 0 (no normals) or 2 to 30");
 }
 
 ImportResult import_cloud(const std::string& db, const std::string& name, const Cloud& cloud, const std::string& source,
@@ -99,7 +103,7 @@ ImportResult import_cloud(const std::string& db, const std::string& name, const 
   const Points3d pts = voxel_downsample(cloud.points, cloud.intensity, cfg.voxel_m, intensity);
   r.points = pts.size();
   const double radius = cfg.normal_radius_m > 0 ? cfg.normal_radius_m : 3.0 * cfg.voxel_m;
-  const auto normals = registration::estimate_normals(pts, radius);
+  const auto normals = cfg.codec.normal_bits > 0 ? registration::estimate_normals(pts, radius) : std::vector<Eigen::Vector3f>{};
   const auto tiles = cut_into_tiles(pts, normals, intensity, TileGrid(cfg.tile_size_m));
   std::vector<EncodedTile> encoded;
   for (const auto& [key, tile] : tiles) {

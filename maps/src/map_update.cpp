@@ -130,7 +130,8 @@ MapUpdateResult update_map(store::Store& s, const std::string& map, const std::v
           const TileCloud& n = load({c->key.tx + dx, c->key.ty + dy});
           context.insert(context.end(), n.points.begin(), n.points.end());
         }
-      const auto normals = registration::estimate_normals(context, radius);
+      const bool with_normals = !b.cloud.normals.empty() || (b.cloud.points.empty() && !old.normals.empty());
+      const auto normals = with_normals ? registration::estimate_normals(context, radius) : std::vector<Eigen::Vector3f>{};
       // What the vehicles measured of the new structure is its shape, not its reflectivity: the
       // added points take the median intensity of the tile's kept points (0.5 with none).
       float fill = 0.5f;
@@ -139,7 +140,6 @@ MapUpdateResult update_map(store::Store& s, const std::string& map, const std::v
         std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
         fill = v[v.size() / 2];
       }
-      const bool with_normals = !b.cloud.normals.empty() || b.cloud.points.empty();
       const bool with_intensity = !b.cloud.intensity.empty() || (b.cloud.points.empty() && !old.intensity.empty());
       for (std::size_t i = 0; i < added.size(); ++i) {
         b.cloud.points.push_back(added[i]);

@@ -1,5 +1,6 @@
 #include "pl/registration/normals.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <unordered_map>
 
@@ -15,42 +16,56 @@ std::vector<Eigen::Vector3f> estimate_normals(const std::vector<Eigen::Vector3d>
   // 64-bit voxel indices in double precision (not the 21-bit cell keys): a map may span far more
   // than 2^20 cells of the normal radius.
   auto cell = [inv](const Eigen::Vector3d& p) { return voxel_index(p, inv); };
-  std::unordered_map<VoxelIndex, std::vector<std::uint32_t>, VoxelIndexHash> cells;
-  cells.reserve(points.size() / 4 + 1);
-  for (std::uint32_t i = 0; i < points.size(); ++i) cells[cell(points[i])].push_back(i);
+  // The points sorted by cell (each cell's in index order), each cell a run of that order.
+  std::vector<std::pair<VoxelIndex, std::uint32_t>> by_cell(points.size());
+  for (std::uint32_t i = 0; i < points.size(); ++i) by_cell[i] = {cell(points[i]), i};
+  std::sort(by_cell.begin(), by_cell.end());
+  std::unordered_map<VoxelIndex, std::pair<std::uint32_t, std::uint32_t>, VoxelIndexHash> runs;
+  runs.reserve(points.size() / 4 + 1);
+  for (std::uint32_t b = 0, e; b < by_cell.size(); b = e) {
+    for (e = b + 1; e < by_cell.size() && by_cell[e].first == by_cell[b].first;) ++e;
+    runs.emplace(by_cell[b].first, std::make_pair(b, e));
+  }
   std::vector<Eigen::Vector3f> normals(points.size(), Eigen::Vector3f::UnitZ());
   if (planarity) planarity->assign(points.size(), 0.0f);
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const Eigen::Vector3d& p = points[i];
-    const VoxelIndex c = cell(p);
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
-    int n = 0;
+  // Cell by cell: the points of the 27 cells round it gathered once (in the order the sums take
+  // them: cell by cell, index order within each), then searched for each of its points.
+  std::vector<Eigen::Vector3d> near;
+  for (const auto& [c, run] : runs) {
+    near.clear();
     for (int dx = -1; dx <= 1; ++dx)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dz = -1; dz <= 1; ++dz) {
-          auto it = cells.find({c[0] + dx, c[1] + dy, c[2] + dz});
-          if (it == cells.end()) continue;
-          for (std::uint32_t j : it->second) {
-            const Eigen::Vector3d d = points[j] - p;  // relative to the point: no precision lost far from the origin
-            if (d.squaredNorm() > r2) continue;
-            sum += d;
-            outer += d * d.transpose();
-            ++n;
-          }
+          auto it = runs.find({c[0] + dx, c[1] + dy, c[2] + dz});
+          if (it == runs.end()) continue;
+          for (std::uint32_t k = it->second.first; k < it->second.second; ++k) near.push_back(points[by_cell[k].second]);
         }
-    if (n < 5) continue;
-    const Eigen::Vector3d mean = sum / n;
-    const Eigen::Matrix3d cov = outer / n - mean * mean.transpose();
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
-    es.computeDirect(cov);
-    Eigen::Vector3d nrm = es.eigenvectors().col(0);
-    const double s = std::abs(nrm.z()) > 0.1 ? nrm.z() : (std::abs(nrm.x()) >= std::abs(nrm.y()) ? nrm.x() : nrm.y());
-    if (s < 0) nrm = -nrm;
-    normals[i] = nrm.normalized().cast<float>();
-    if (planarity) {
-      const double l1 = es.eigenvalues()(1);
-      (*planarity)[i] = l1 > 0 ? static_cast<float>(1.0 - es.eigenvalues()(0) / l1) : 0.0f;
+    for (std::uint32_t k = run.first; k < run.second; ++k) {
+      const std::uint32_t i = by_cell[k].second;
+      const Eigen::Vector3d& p = points[i];
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
+      int n = 0;
+      for (const Eigen::Vector3d& q : near) {
+        const Eigen::Vector3d d = q - p;  // relative to the point: no precision lost far from the origin
+        if (d.squaredNorm() > r2) continue;
+        sum += d;
+        outer += d * d.transpose();
+        ++n;
+      }
+      if (n < 5) continue;
+      const Eigen::Vector3d mean = sum / n;
+      const Eigen::Matrix3d cov = outer / n - mean * mean.transpose();
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+      es.computeDirect(cov);
+      Eigen::Vector3d nrm = es.eigenvectors().col(0);
+      const double s = std::abs(nrm.z()) > 0.1 ? nrm.z() : (std::abs(nrm.x()) >= std::abs(nrm.y()) ? nrm.x() : nrm.y());
+      if (s < 0) nrm = -nrm;
+      normals[i] = nrm.normalized().cast<float>();
+      if (planarity) {
+        const double l1 = es.eigenvalues()(1);
+        (*planarity)[i] = l1 > 0 ? static_cast<float>(1.0 - es.eigenvalues()(0) / l1) : 0.0f;
+      }
     }
   }
   return normals;

@@ -157,7 +157,7 @@ struct SignedFixture {
     pl::write_pcd(dir / "ground.pcd", pts, std::vector<float>(pts.size(), 0.4f), pl::GeoPoint{49.0, 8.4, 110.0});
     run("key-gen --out " + (dir / "fleet"));
     fleet = pl::signing::load_public_keys(dir / "fleet.pub");
-    run("tile --cloud " + (dir / "ground.pcd") + " --db " + db + " --map town --normal-radius 2.5");
+    run("tile --cloud " + (dir / "ground.pcd") + " --db " + db + " --map town --voxel 0.5");
     run("publish --db " + db + " --map town --version 1 --signing-key " + (dir / "fleet.key"));
   }
   void run(const std::string& args) {

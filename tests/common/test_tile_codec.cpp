@@ -126,6 +126,29 @@ TEST(TileCodec, OptionalAttributes) {
   EXPECT_LT(pl::encode_tile(with_normals).size(), pl::encode_tile(full).size());
 }
 
+// pl-map's tiles: the normals and intensity a cloud has are left out when given no bits, the bytes
+// exactly those of its positions alone.
+TEST(TileCodec, AnAttributeGivenNoBitsIsNotStored) {
+  const TileCloud full = realistic_tile({4000.0, -2500.0, 0.0}, 4);
+  TileCloud positions_only;
+  positions_only.points = full.points;
+  pl::TileCodecConfig none;
+  none.normal_bits = 0;
+  none.intensity_bits = 0;
+  const std::string bytes = pl::encode_tile(full, none);
+  EXPECT_EQ(bytes, pl::encode_tile(positions_only, none));
+  EXPECT_EQ(bytes, pl::encode_tile(positions_only));
+  const TileCloud out = pl::decode_tile(bytes);
+  EXPECT_EQ(out.size(), full.size());
+  EXPECT_TRUE(out.normals.empty());
+  EXPECT_TRUE(out.intensity.empty());
+  pl::TileCodecConfig normals_only = none;
+  normals_only.normal_bits = 6;
+  const TileCloud n = pl::decode_tile(pl::encode_tile(full, normals_only));
+  EXPECT_EQ(n.normals.size(), full.size());
+  EXPECT_TRUE(n.intensity.empty());
+}
+
 // Draco's k-d tree coder wins on noise-free normals at speeds up to 4 (its best level), the sequential
 // one on noisy normals; both stay within every bound. (Byte 8 of a Draco header is the coder.)
 TEST(TileCodec, BothDracoCodersStayWithinBounds) {

@@ -71,12 +71,15 @@ ChangeReport drive(const std::string& vehicle, const std::string& id, double sta
   return r;
 }
 
+// The street, tiled with normals and intensity stored (as maps were before 2026-12-08), or with
+// positions only (pl-map tile's default).
 struct Street {
   pl::test::TempDir dir;
   std::string db = dir / "maps.sqlite";
-  Street() {
+  explicit Street(bool attributes = true) {
     pl::maps::ImportConfig cfg;
     cfg.origin = pl::GeoPoint{48.0, 11.0, 500.0};
+    if (attributes) cfg.codec.normal_bits = 6, cfg.codec.intensity_bits = 4;
     pl::maps::import_cloud(db, "street", street(), "street", cfg);
     Store s = Store::open(db, false);
     s.publish("street", 1);
@@ -155,6 +158,21 @@ TEST(MapUpdate, OneDriveOrAnotherVersionsReportsStageNothing) {
   three.rule.min_drives = 3;
   EXPECT_FALSE(update_map(s, "street", {drive("v1", "a", 1000), drive("v2", "b", 90000)}, three).version);
   EXPECT_TRUE(update_map(s, "street", {drive("v1", "a", 1000), drive("v2", "b", 90000)}).version);
+}
+
+// A rebuilt tile keeps the attributes its parent has: none beside the positions here.
+TEST(MapUpdate, TilesOfPositionsOnlyStaySo) {
+  Street st(false);
+  Store s = Store::open(st.db, false);
+  const auto r = update_map(s, "street", {drive("v1", "a", 1000), drive("v2", "b", 90000)});
+  ASSERT_TRUE(r.version.has_value());
+  ASSERT_EQ(r.tiles.size(), 2u);
+  for (const auto& t : r.tiles) {
+    const pl::TileCloud c = pl::decode_tile(*s.blob(s.find_tile("street", r.version->number, t.key)->hash));
+    EXPECT_GE(c.size(), 100u * 100u);  // the ground at least
+    EXPECT_TRUE(c.normals.empty());
+    EXPECT_TRUE(c.intensity.empty());
+  }
 }
 
 TEST(MapUpdate, RefusesWhatItCannotUpdate) {

@@ -325,6 +325,7 @@ TEST(Maps, FailedImportLeavesNoStoreMapOrVersion) {
       {"--cloud " + (dir / "missing.pcd") + " --map m", "missing.pcd"},
       {"--cloud " + (dir / "garbage.pcd") + " --map m", "garbage.pcd"},
       {"--cloud " + (dir / "a.pcd") + " --map 'bad name!'", "invalid map name"},
+      {"--cloud " + (dir / "a.pcd") + " --map m --normal-radius 1", "give --normal-bits 6 too"},
   };
   for (const auto& c : failing) {
     auto r = pl::test::run(pl_map("tile " + c.args + " --db " + fresh));

@@ -34,7 +34,8 @@ struct MapFixture {
   // In a SQLite file of its own, or in the database `db_url` names (an empty PostgreSQL one).
   explicit MapFixture(const std::string& db_url = "") : db(db_url.empty() ? dir / "maps.sqlite" : db_url) {
     pl::write_pcd(dir / "street.pcd", cloud, std::vector<float>(cloud.size(), 0.5f), pl::GeoPoint{49.0, 8.4, 110.0});
-    auto r = pl::test::run(pl::test::tool("pl-map") + " tile --cloud " + (dir / "street.pcd") + " --db " + db + " --map town");
+    // Intensity stored (the viewer's colour, which its tests read); normals not (pl-map's default).
+    auto r = pl::test::run(pl::test::tool("pl-map") + " tile --cloud " + (dir / "street.pcd") + " --db " + db + " --map town --intensity-bits 4");
     if (r.exit_code != 0) throw std::runtime_error(r.output);
     r = pl::test::run(pl::test::tool("pl-map") + " publish --db " + db + " --map town --version 1");
     if (r.exit_code != 0) throw std::runtime_error(r.output);

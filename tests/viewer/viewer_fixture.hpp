@@ -50,7 +50,7 @@ struct ViewerMap : MapFixture {
   explicit ViewerMap(bool publish_second = true) {
     const auto cloud2 = changed_street_cloud();
     pl::write_pcd(dir / "street2.pcd", cloud2, std::vector<float>(cloud2.size(), 0.5f), pl::GeoPoint{49.0, 8.4, 110.0});
-    auto r = run(tool("pl-map") + " tile --cloud " + (dir / "street2.pcd") + " --db " + db + " --map town");
+    auto r = run(tool("pl-map") + " tile --cloud " + (dir / "street2.pcd") + " --db " + db + " --map town --intensity-bits 4");
     if (r.exit_code != 0) throw std::runtime_error(r.output);
     if (publish_second) {
       r = run(tool("pl-map") + " publish --db " + db + " --map town --version 2");

@@ -1,4 +1,4 @@
-// Draco encoding of one map tile: positions, normals and intensity. Positions are stored relative to
+// Draco encoding of one map tile: positions, and normals and intensity when asked for. Positions are stored relative to
 // the tile's own box and quantized explicitly on it, so the error bound holds for any map; points
 // are sorted first, so equal tiles give equal bytes.
 #pragma once
@@ -22,12 +22,12 @@ struct TileCodecConfig {
   double max_error_m = 0.02;  // largest position error after decoding, per axis: a tenth of a 0.2 m
                               // voxel, which ICP averages out over a scan's thousands of pairs
   int normal_bits = 6;        // octahedral quantization of the normals: ~2 deg, about what normals
-                              // estimated from 0.2 m voxels are good to
-  int intensity_bits = 4;     // intensity only colours the viewer (the localizer never reads it)
+                              // estimated from 0.2 m voxels are good to; 0: not stored
+  int intensity_bits = 4;     // intensity only colours the viewer (the localizer never reads it); 0: not stored
   int speed = 5;              // Draco's encoding speed, 0 (best compression) .. 10 (fastest)
 };
 
-// Encodes the cloud. Throws pl::Error for mismatched attribute counts or non-finite values.
+// Encodes the cloud's positions, and its normals and intensity unless their bits are 0. Throws pl::Error for mismatched attribute counts or non-finite values.
 std::string encode_tile(const TileCloud& cloud, const TileCodecConfig& cfg = {});
 
 // Decodes bytes written by encode_tile (or any Draco point cloud with a position attribute; the

@@ -1,5 +1,6 @@
-// Importing a cloud into the map store as a new staged version: voxelized, a normal per point,
-// cut into tiles, each Draco-encoded; the map is created on first use, and tiles whose bytes did not
+// Importing a cloud into the map store as a new staged version: voxelized, cut into tiles, each
+// Draco-encoded (positions only by default: vehicles estimate the normals, only the viewer reads
+// intensity); the map is created on first use, and tiles whose bytes did not
 // change share their stored blobs. pl-map tile runs it.
 #pragma once
 
@@ -19,8 +20,8 @@ namespace pl::maps {
 struct ImportConfig {
   double voxel_m = 0.2;
   double tile_size_m = 20.0;
-  double normal_radius_m = 0.0;    // 0: 3 x voxel_m
-  TileCodecConfig codec;           // max_error_m: the largest position error after decoding
+  double normal_radius_m = 0.0;    // of the stored normals (codec.normal_bits > 0); 0: 3 x voxel_m
+  TileCodecConfig codec{0.02, 0, 0, 5};  // positions to 2 cm; no normals, no intensity
   std::optional<GeoPoint> origin;  // of the cloud's ENU frame, when the cloud does not record it
   std::string note;                // of the version; default "tiled from SOURCE"
   std::string who = "pl-map";      // in the store's upload log

@@ -1,0 +1,15 @@
+#include "tile_normals.hpp"
+
+#include "pl/registration/normals.hpp"
+
+namespace pl::client {
+
+std::shared_ptr<const TileCloud> with_normals(TileCloud cloud, double map_voxel_m) {
+  if (cloud.normals.size() != cloud.size()) {
+    const double radius = map_voxel_m > 0 ? 3.0 * map_voxel_m : 0.6;
+    cloud.normals = registration::estimate_normals(cloud.points, radius);
+  }
+  return std::make_shared<const TileCloud>(std::move(cloud));
+}
+
+}  // namespace pl::client
