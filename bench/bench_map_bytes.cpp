@@ -58,7 +58,7 @@ int main(int argc, char** argv) {
     decode_ms += d, decode_max = std::max(decode_max, d);
     if (c.normals.empty()) {
       t0 = Clock::now();
-      const auto normals = pl::registration::estimate_normals(c.points, map->voxel_size > 0 ? 3.0 * map->voxel_size : 0.6);
+      const auto normals = pl::registration::estimate_normals(c.points, pl::registration::map_normal_radius(map->voxel_size > 0 ? map->voxel_size : 0.2));
       const double n = ms_since(t0);
       normals_ms += n, normals_max = std::max(normals_max, n);
     }

@@ -12,13 +12,7 @@ before=${1:?$usage}
 bin=${2:?$usage}
 work=${3:?$usage}
 frames=${4:-1200}
-root=$(cd "$(dirname "$0")/.." && pwd)
-data=$("$root/tools/shared-data.sh" || true)
-traj="$data/kitti-trajectories/00.txt"
-if [[ -z "$data" || ! -f "$traj" ]]; then
-  echo "(skipped: the KITTI 00 trajectory is not beside the repository)"
-  exit 0
-fi
+source "$(dirname "$0")/kitti00_trajectory.sh"
 export PL_NO_PROGRESS=1
 before=$(cd "$before" && pwd)
 bin=$(cd "$bin" && pwd)

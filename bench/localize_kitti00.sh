@@ -12,13 +12,7 @@ set -euo pipefail
 bin=${1:?usage: bench/localize_kitti00.sh BIN_DIR WORK_DIR [FRAMES]}
 work=${2:?usage: bench/localize_kitti00.sh BIN_DIR WORK_DIR [FRAMES]}
 frames=${3:-}
-root=$(cd "$(dirname "$0")/.." && pwd)
-data=$("$root/tools/shared-data.sh" || true)
-traj="$data/kitti-trajectories/00.txt"
-if [[ -z "$data" || ! -f "$traj" ]]; then
-  echo "(skipped: the KITTI 00 trajectory is not beside the repository)"
-  exit 0
-fi
+source "$(dirname "$0")/kitti00_trajectory.sh"
 mkdir -p "$work"
 work=$(cd "$work" && pwd)
 tag="k00${frames:+-$frames}"

@@ -8,8 +8,8 @@
 
 namespace pl::client {
 
-// The cloud, with normals estimated from its own points within 3 x the map's voxel (the radius
-// pl-map gives the normals it stores; 0.6 m when the map names no voxel) when it has none.
+// The cloud, with normals estimated from its own points within registration::map_normal_radius of
+// the map's voxel (0.2 m when the map names none) when it has none.
 std::shared_ptr<const TileCloud> with_normals(TileCloud cloud, double map_voxel_m);
 
 }  // namespace pl::client

@@ -120,7 +120,8 @@ void add_tile(cli::Tool& tool, std::ostream& out) {
   };
   auto s = std::make_shared<State>();
   CLI::App& c = tool.command("tile", "voxelize a cloud, cut it into tiles, Draco-encode them (positions; normals and intensity "
-                             "when given bits) and write a new staged version (the map is created on first use; unchanged tiles share their stored bytes)", [s, &out] {
+                             "when given bits) and write a new staged version (the map is created on first use; unchanged "
+                             "tiles share their stored bytes)", [s, &out] {
     check_import_config(s->cfg);
     if (!s->origin.empty()) s->cfg.origin = cli::geo_point(s->origin, "--origin");
     if (s->places == "auto") s->cfg.places = pl::file_exists(places_path(s->cloud)) ? places_path(s->cloud) : "";
@@ -149,7 +150,8 @@ void add_tile(cli::Tool& tool, std::ostream& out) {
   cli::geo_option(c, "--origin", s->origin, "the geodetic origin of the cloud's ENU frame (when the cloud does not record it)");
   cli::number(c, "--voxel", s->cfg.voxel_m, "voxel side, metres", cli::above(0));
   cli::number(c, "--tile-size", s->cfg.tile_size_m, "tile side, metres", cli::at_least(1));
-  cli::number(c, "--normal-radius", s->cfg.normal_radius_m, "neighbourhood of the stored normals, metres (default: 3 x --voxel)", cli::above(0))->default_str("");
+  cli::number(c, "--normal-radius", s->cfg.normal_radius_m, "neighbourhood of the stored normals, metres (default: 3 x --voxel)",
+              cli::above(0))->default_str("");
   cli::number(c, "--max-error", s->cfg.codec.max_error_m, "largest position error after decoding, metres",
               cli::above_up_to(0, 0.1));
   cli::number(c, "--normal-bits", s->cfg.codec.normal_bits, "store normals: bits of each of their two octahedral coordinates "

@@ -360,7 +360,7 @@ nlohmann::json tile_sources(const MapCloud& map, std::size_t drives) {
 // The merged map's points of things that moved, removed by the rays of every merged scan.
 nlohmann::json remove_moving(MapCloud& map, const std::vector<PlacedDrive>& drives, const GloamConfig& cfg, const Tell& tell) {
   const auto t0 = std::chrono::steady_clock::now();
-  const std::vector<Eigen::Vector3f> normals = registration::estimate_normals(map.points, 3.0 * cfg.merge.voxel_m);
+  const std::vector<Eigen::Vector3f> normals = registration::estimate_normals(map.points, registration::map_normal_radius(cfg.merge.voxel_m));
   FreeSpaceFilter filter(map.points, normals, map.seen, cfg.merge.voxel_m, cfg.free_space);
   std::size_t scans = 0, done = 0, last_drive = SIZE_MAX;
   for (const PlacedDrive& d : drives) scans += (d.dataset->size() + cfg.merge.every - 1) / cfg.merge.every;

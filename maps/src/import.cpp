@@ -102,7 +102,7 @@ ImportResult import_cloud(const std::string& db, const std::string& name, const 
   std::vector<float> intensity;
   const Points3d pts = voxel_downsample(cloud.points, cloud.intensity, cfg.voxel_m, intensity);
   r.points = pts.size();
-  const double radius = cfg.normal_radius_m > 0 ? cfg.normal_radius_m : 3.0 * cfg.voxel_m;
+  const double radius = cfg.normal_radius_m > 0 ? cfg.normal_radius_m : registration::map_normal_radius(cfg.voxel_m);
   const auto normals = cfg.codec.normal_bits > 0 ? registration::estimate_normals(pts, radius) : std::vector<Eigen::Vector3f>{};
   const auto tiles = cut_into_tiles(pts, normals, intensity, TileGrid(cfg.tile_size_m));
   std::vector<EncodedTile> encoded;

@@ -3,7 +3,6 @@
 #include <Eigen/Eigenvalues>
 #include <array>
 #include <cmath>
-#include <cstdlib>
 #include <string>
 
 #include "pl/common/error.hpp"
@@ -55,10 +54,9 @@ VoxelAccumulator::VoxelAccumulator(double voxel) : inv_(1.0 / voxel) {
 
 
 VoxelAccumulator::Sum& VoxelAccumulator::accumulate(const Eigen::Vector3d& p, float intensity) {
-  // pack_cell holds 21 bits a coordinate: +-2^20 voxels (+-210 km at 0.2 m) round the map's origin.
-  constexpr std::int64_t kLimit = std::int64_t{1} << 20;
+  // +-2^20 voxels (+-210 km at 0.2 m) round the map's origin.
   const VoxelIndex v = voxel_index(p, inv_);
-  if (std::abs(v[0]) >= kLimit || std::abs(v[1]) >= kLimit || std::abs(v[2]) >= kLimit)
+  if (!registration::packs(v[0], v[1], v[2]))
     throw Error("a point at (" + std::to_string(p.x()) + ", " + std::to_string(p.y()) + ", " + std::to_string(p.z()) +
                 ") m lies too far from the map's origin for its voxels; give poses in a local frame (pl-map build "
                 "takes GPS in a local ENU frame) or a larger voxel");

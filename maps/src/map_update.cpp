@@ -65,7 +65,7 @@ MapUpdateResult update_map(store::Store& s, const std::string& map, const std::v
 
   const TileGrid grid(info.tile_size);
   const double ev = r.summary.voxel_m;
-  const double radius = cfg.normal_radius_m > 0 ? cfg.normal_radius_m : 3.0 * info.voxel_size;
+  const double radius = cfg.normal_radius_m > 0 ? cfg.normal_radius_m : registration::map_normal_radius(info.voxel_size);
   // The parent's tiles, each read and decoded once (neighbouring candidates share neighbours).
   std::map<TileKey, TileCloud> decoded;
   auto load = [&](const TileKey& key) -> const TileCloud& {
@@ -120,18 +120,23 @@ MapUpdateResult update_map(store::Store& s, const std::string& map, const std::v
     b.u.added = added.size();
     if (b.u.removed == 0 && b.u.added == 0) continue;  // nothing to change: the tile keeps its bytes
     if (!added.empty()) {
-      // Normals of the added points from everything round them: the tile as it will be and its neighbours.
-      Points3d context = b.cloud.points;
-      const std::size_t first_added = context.size();
-      context.insert(context.end(), added.begin(), added.end());
-      for (int dx = -1; dx <= 1; ++dx)
-        for (int dy = -1; dy <= 1; ++dy) {
-          if (dx == 0 && dy == 0) continue;
-          const TileCloud& n = load({c->key.tx + dx, c->key.ty + dy});
-          context.insert(context.end(), n.points.begin(), n.points.end());
-        }
-      const bool with_normals = !b.cloud.normals.empty() || (b.cloud.points.empty() && !old.normals.empty());
-      const auto normals = with_normals ? registration::estimate_normals(context, radius) : std::vector<Eigen::Vector3f>{};
+      // The added points take the attributes the parent's tile has.
+      const bool with_normals = !old.normals.empty(), with_intensity = !old.intensity.empty();
+      std::vector<Eigen::Vector3f> normals;  // of the added points
+      if (with_normals) {
+        // From everything round them: the tile as it will be and its neighbours.
+        Points3d context = b.cloud.points;
+        const std::size_t first_added = context.size();
+        context.insert(context.end(), added.begin(), added.end());
+        for (int dx = -1; dx <= 1; ++dx)
+          for (int dy = -1; dy <= 1; ++dy) {
+            if (dx == 0 && dy == 0) continue;
+            const TileCloud& n = load({c->key.tx + dx, c->key.ty + dy});
+            context.insert(context.end(), n.points.begin(), n.points.end());
+          }
+        const auto all = registration::estimate_normals(context, radius);
+        normals.assign(all.begin() + static_cast<std::ptrdiff_t>(first_added), all.begin() + static_cast<std::ptrdiff_t>(first_added + added.size()));
+      }
       // What the vehicles measured of the new structure is its shape, not its reflectivity: the
       // added points take the median intensity of the tile's kept points (0.5 with none).
       float fill = 0.5f;
@@ -140,10 +145,9 @@ MapUpdateResult update_map(store::Store& s, const std::string& map, const std::v
         std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
         fill = v[v.size() / 2];
       }
-      const bool with_intensity = !b.cloud.intensity.empty() || (b.cloud.points.empty() && !old.intensity.empty());
       for (std::size_t i = 0; i < added.size(); ++i) {
         b.cloud.points.push_back(added[i]);
-        if (with_normals) b.cloud.normals.push_back(normals[first_added + i]);
+        if (with_normals) b.cloud.normals.push_back(normals[i]);
         if (with_intensity) b.cloud.intensity.push_back(fill);
       }
     }

@@ -1,6 +1,6 @@
-// Draco encoding of one map tile: positions, and normals and intensity when asked for. Positions are stored relative to
-// the tile's own box and quantized explicitly on it, so the error bound holds for any map; points
-// are sorted first, so equal tiles give equal bytes.
+// Draco encoding of one map tile: positions, and normals and intensity when asked for. Positions
+// are stored relative to the tile's own box and quantized explicitly on it, so the error bound holds
+// for any map; points are sorted first, so equal tiles give equal bytes.
 #pragma once
 
 #include <Eigen/Core>
@@ -27,7 +27,8 @@ struct TileCodecConfig {
   int speed = 5;              // Draco's encoding speed, 0 (best compression) .. 10 (fastest)
 };
 
-// Encodes the cloud's positions, and its normals and intensity unless their bits are 0. Throws pl::Error for mismatched attribute counts or non-finite values.
+// Encodes the cloud's positions, and its normals and intensity unless their bits are 0. Throws
+// pl::Error for mismatched attribute counts or non-finite values.
 std::string encode_tile(const TileCloud& cloud, const TileCodecConfig& cfg = {});
 
 // Decodes bytes written by encode_tile (or any Draco point cloud with a position attribute; the

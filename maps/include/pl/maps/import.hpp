@@ -1,7 +1,7 @@
 // Importing a cloud into the map store as a new staged version: voxelized, cut into tiles, each
 // Draco-encoded (positions only by default: vehicles estimate the normals, only the viewer reads
-// intensity); the map is created on first use, and tiles whose bytes did not
-// change share their stored blobs. pl-map tile runs it.
+// intensity); the map is created on first use, and tiles whose bytes did not change share their
+// stored blobs. pl-map tile runs it.
 #pragma once
 
 #include <cstddef>

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <vector>
 
 namespace pl::registration {
@@ -15,6 +16,12 @@ inline std::uint64_t pack_cell(std::int64_t x, std::int64_t y, std::int64_t z) {
   constexpr std::uint64_t m = (std::uint64_t{1} << 21) - 1;
   return (static_cast<std::uint64_t>(x) & m) | ((static_cast<std::uint64_t>(y) & m) << 21) |
          ((static_cast<std::uint64_t>(z) & m) << 42);
+}
+
+// Whether pack_cell keeps the cell apart from every other: each coordinate within +-2^20.
+constexpr std::int64_t kCellReach = std::int64_t{1} << 20;
+inline bool packs(std::int64_t x, std::int64_t y, std::int64_t z) {
+  return std::abs(x) < kCellReach && std::abs(y) < kCellReach && std::abs(z) < kCellReach;
 }
 
 inline std::int64_t cell_coordinate(float v, float inv_cell) { return static_cast<std::int64_t>(std::floor(v * inv_cell)); }

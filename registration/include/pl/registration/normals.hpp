@@ -18,6 +18,10 @@ namespace pl::registration {
 std::vector<Eigen::Vector3f> estimate_normals(const std::vector<Eigen::Vector3d>& points, double radius,
                                               std::vector<float>* planarity = nullptr);
 
+// The neighbourhood of a map's normals: 3 voxels of the map. pl-map estimates the normals it
+// stores in tiles with it, and a vehicle those of tiles stored without.
+inline double map_normal_radius(double voxel_m) { return 3.0 * voxel_m; }
+
 // Centroid and principal axes (eigenvalues ascending) of `count` points.
 void principal_axes(const Eigen::Vector3f* points, int count, Eigen::Vector3d& centroid,
                     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>& axes);
